@@ -1,0 +1,30 @@
+"""fpk_vibro: response densities of a randomly excited vibro-impact Duffing oscillator.
+
+Three methods share one model (:class:`VibroImpactSystem`) and one result
+interface (:class:`Solution`):
+
+- :mod:`fpk_vibro.averaging`  — stochastic averaging of the energy envelope;
+- :mod:`fpk_vibro.fem`        — finite elements for the 2-D FPK on the strip;
+- :mod:`fpk_vibro.montecarlo` — Monte Carlo simulation of the SDE with impacts;
+- :mod:`fpk_vibro.exact`      — the exact Gibbs density for r = 1, D2 = 0.
+
+Submodules are imported on first use, so ``import fpk_vibro`` stays light.
+"""
+from __future__ import annotations
+
+import importlib
+
+from .model import VibroImpactSystem
+from .solution import MOMENT_KEYS, Solution
+
+__all__ = ["VibroImpactSystem", "Solution", "MOMENT_KEYS",
+           "averaging", "exact", "fem", "montecarlo"]
+__version__ = "0.1.0"
+
+_LAZY = {"averaging", "exact", "fem", "montecarlo", "orbits", "cli", "plotting", "io"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'fpk_vibro' has no attribute {name!r}")
