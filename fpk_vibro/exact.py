@@ -1,0 +1,159 @@
+"""The exact stationary density for elastic impacts without parametric noise.
+
+For r = 1 and D2 = 0 (or no barrier and D2 = 0) the Gibbs density
+
+    p(x, y) = exp(−β H(x, y)) / Z,   β = c / D1,
+
+on the strip solves the stationary FPK and satisfies the impact condition
+p(Δ, −v) = p(Δ, v) (DESIGN §3, §5).  It is the reference every method is checked
+against.  It holds for any a, b (softening, double well) allowed by the model.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy import integrate, special
+
+from .model import VibroImpactSystem
+from .orbits import orbit_nodes, require_single_well
+from .solution import Solution
+
+__all__ = ["GibbsSolution", "gibbs"]
+
+_QUAD = dict(epsabs=0.0, epsrel=1e-13, limit=400)
+
+
+class GibbsSolution(Solution):
+    """p(x, y) ∝ exp(−(c/D1) H) on the strip; exact for r = 1 (or no barrier), D2 = 0.
+
+    Raises
+    ------
+    ValueError
+        If the system is not such a case (r < 1 with a barrier, or D2 > 0).
+    """
+
+    kind = "exact"
+
+    def __init__(self, system: VibroImpactSystem) -> None:
+        if system.D2 != 0:
+            raise ValueError(f"exact Gibbs density needs D2 = 0; got D2={system.D2}")
+        if system.has_barrier and system.r != 1.0:
+            raise ValueError(f"exact Gibbs density needs elastic impacts r = 1; got r={system.r}")
+        self.system = system
+        self.beta = system.c / system.D1
+        lo, hi = system.x_bounds
+        # wells of G inside the strip, where the integrand peaks
+        wells = [w for w in self._wells() if lo < w < hi]
+        self._g0 = min([0.0] + [float(system.potential(w)) for w in wells])
+        self._bounds = (lo, hi)
+        self._points = sorted(set(wells + [0.0]))
+        self.Zx = self._x_integral(lambda x: np.ones_like(x))
+        self.Z = self.Zx * math.sqrt(2.0 * math.pi / self.beta)
+
+    def _wells(self) -> list[float]:
+        a, b = self.system.a, self.system.b
+        return [math.sqrt(-a / b), -math.sqrt(-a / b)] if a < 0 < b else []
+
+    def _weight(self, x: np.ndarray) -> np.ndarray:
+        return np.exp(-self.beta * (self.system.potential(x) - self._g0))
+
+    def _x_integral(self, g) -> float:
+        """∫ g(x) exp(−β(G − G_min)) dx over the strip, split at the wells."""
+        lo, hi = self._bounds
+        cuts = [lo] + [p for p in self._points if lo < p < hi] + [hi]
+        return sum(integrate.quad(lambda x: float(g(np.asarray(x)) * self._weight(x)),
+                                  u, v, **_QUAD)[0] for u, v in zip(cuts[:-1], cuts[1:]))
+
+    # -- densities ----------------------------------------------------------------
+    def pdf_joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        p = np.exp(-self.beta * (self.system.energy(x, y) - self._g0)) / self.Z
+        return np.where(self.system.in_strip(x), p, 0.0)
+
+    def pdf_x(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        return np.where(self.system.in_strip(x), self._weight(x) / self.Zx, 0.0)
+
+    def pdf_y(self, y: np.ndarray) -> np.ndarray:
+        y = np.asarray(y, dtype=float)
+        return math.sqrt(self.beta / (2.0 * math.pi)) * np.exp(-0.5 * self.beta * y * y)
+
+    def pdf_energy(self, H: np.ndarray) -> np.ndarray:
+        """p(H) = T(H) exp(−βH)/Z, T(H) = ∫ 2 dx/sqrt(2H − 2G) over {G < H} ∩ strip."""
+        H = np.asarray(H, dtype=float)
+        try:
+            require_single_well(self.system, "the vectorised period")
+            T = orbit_nodes(self.system, np.maximum(H, 0.0)).period
+            T = np.where(H > 0, T, 0.0)
+        except ValueError:
+            T = np.vectorize(self._period_general, otypes=[float])(H)
+        with np.errstate(over="ignore"):
+            p = T * np.exp(-self.beta * (H - self._g0)) / self.Z
+        return np.where(H > self._g0, p, 0.0)
+
+    def _period_general(self, H: float) -> float:
+        """Level-set period for any potential: quad with 1/sqrt weights at turning points."""
+        a, b = self.system.a, self.system.b
+        lo, hi = self._bounds
+        # 2H − 2G(x) = −(b/2)(x² − q1)(x² − q2) (or a(q − x²) for b = 0): factored,
+        # so it keeps its relative accuracy next to the turning points
+        if b != 0:
+            disc = a * a + 4 * b * H
+            if disc < 0:
+                qs = []
+                def gap(x):
+                    return 2.0 * H - 2.0 * float(self.system.potential(x))
+            else:
+                sq = math.sqrt(disc)
+                q1, q2 = (-a + sq) / b, (-a - sq) / b
+                qs = [q1, q2]
+                def gap(x):
+                    return -0.5 * b * (x * x - q1) * (x * x - q2)
+        else:
+            qs = [2.0 * H / a] if a > 0 else []
+            def gap(x):
+                return a * (2.0 * H / a - x * x)
+        roots = [s * math.sqrt(q) for q in qs if q > 0 for s in (1.0, -1.0)]
+        cuts = sorted({c for c in roots if lo < c < hi} | {lo, hi})
+        rootset = set(roots)
+        total = 0.0
+        for u, v in zip(cuts[:-1], cuts[1:]):
+            if not (math.isfinite(u) and math.isfinite(v)):
+                continue
+            if self.system.potential(0.5 * (u + v)) >= H:
+                continue
+            al = -0.5 if u in rootset else 0.0
+            ar = -0.5 if v in rootset else 0.0
+
+            def f(x, u=u, v=v, al=al, ar=ar):
+                return 2.0 / math.sqrt(max(gap(x), 1e-300)) * max(x - u, 0.0) ** (-al) * max(v - x, 0.0) ** (-ar)
+            total += integrate.quad(f, u, v, weight="alg", wvar=(al, ar), **_QUAD)[0]
+        return total
+
+    def moments(self) -> dict[str, float]:
+        G = self.system.potential
+        Ex2 = self._x_integral(lambda x: x * x) / self.Zx
+        Ex4 = self._x_integral(lambda x: x ** 4) / self.Zx
+        EG = self._x_integral(G) / self.Zx
+        out = {"E_H": 0.5 / self.beta + EG, "E_x2": Ex2, "E_y2": 1.0 / self.beta,
+               "E_x4": Ex4, "E_y4": 3.0 / self.beta ** 2}
+        if self.system.has_barrier:
+            Gb = self.system.barrier_energy
+            out["P_impact"] = self._x_integral(
+                lambda x: special.erfc(np.sqrt(self.beta * np.maximum(Gb - G(x), 0.0)))) / self.Zx
+        return out
+
+    # -- persistence --------------------------------------------------------------
+    def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return {}, {}
+
+    @classmethod
+    def _from_state(cls, system, meta, arrays):
+        return cls(system)
+
+
+def gibbs(system: VibroImpactSystem) -> GibbsSolution:
+    """The exact Gibbs solution of ``system`` (r = 1 or no barrier, D2 = 0)."""
+    return GibbsSolution(system)
