@@ -373,6 +373,18 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
            "E_y2": float(np.sum(w * sums["y2"])) / Z,
            "E_x4": float(np.sum(w * sums["x4"])) / Z,
            "E_y4": float(np.sum(w * sums["y4"])) / Z}
+    # a power-law tail reaches Φ ≥ phi_cut only at astronomic H: its last panel
+    # then still carries mass (or moment weight), which a light tail never does
+    last = nodes[-1]
+    w_last = last[1] * np.exp(-last[2]) * last[3]["T"]
+    for name, g in (("the density", 1.0), ("E_H", last[0]), ("E_y4", last[3]["y4"] / last[3]["T"])):
+        share = float(np.sum(w_last * g)) / (Z * (mom.get(name, 1.0)))
+        if not share < 1e-10:
+            raise ValueError(
+                f"averaging: {name} does not converge: the averaged density has a power-law "
+                f"tail (the last energy panel, H ≈ {float(last[0][-1]):.3g}, holds a share "
+                f"{share:.2g}); parametric noise D2={system.D2} is too strong for damping "
+                f"c={system.c} here")
     if system.has_barrier:
         k0 = sum(n[0].size for n in nodes[:n_low])
         mom["P_impact"] = float(np.sum(w[k0:] * sums["T"][k0:])) / Z
