@@ -1,11 +1,6 @@
-"""Stochastic averaging of the energy envelope (DESIGN §2, paper §3).
+"""Stationary density of the averaged energy process (DESIGN §2, paper Eqs. 22–27).
 
-Averaged Itô equation dH = m(H) dt + σ(H) dW with (one traversal of the orbit,
-x ∈ [x_lo, x_hi], |y| = sqrt(2H − 2G(x)); paper Eqs. 20–21)
-
-    T  = 2 ∫ dx/|y|,   J1 = ∫ |y| dx,   J2 = ∫ |y| (2 D1 + 2 D2 x²) dx,
-    K  = ∫ (D1 + D2 x²)/|y| dx,
-    m  = (2/T)(−c J1 + K) − δ(H)/T,    σ² = (2/T) J2.
+With T, J1, J2, K, m, σ² as in :mod:`fpk_vibro.averaging.coefficients`:
 
 Stationary density (paper Eq. 24).  Because dJ2/dH = 2K (the integrand of J2
 vanishes at turning points and the barriers are fixed), 2m/σ² = J2'/J2 −
@@ -31,48 +26,14 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import legendre as L
 
-from .model import VibroImpactSystem
-from .orbits import energy_loss, orbit_nodes, require_single_well
-from .solution import Solution
+from ..model import VibroImpactSystem
+from ..orbits import orbit_nodes, require_single_well
+from ..solution import Solution
+from .coefficients import _check_int, _gl, _panel_nodes, _rate
 
-__all__ = ["coefficients", "stationary", "AveragedSolution"]
+__all__ = ["stationary", "AveragedSolution"]
 
 _MAX_PANELS = 400
-
-
-def _check_int(name: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"averaging: {name} must be an integer in [{lo}, {hi}]; got {value!r}")
-    return int(value)
-
-
-def coefficients(system: VibroImpactSystem, H: np.ndarray, *, n_theta: int = 48
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Quasi-period T(H), averaged drift m(H) and diffusion σ²(H) (paper Eqs. 20–21).
-
-    Vectorised over ``H`` (H ≥ 0).  Agrees with adaptive ``scipy.integrate.quad`` to
-    relative 1e-12 or better for n_theta = 48 (tests/test_averaging.py).
-
-    Returns
-    -------
-    T, m, sigma2 : ndarray
-        Arrays of the shape of ``H``.
-    """
-    require_single_well(system)
-    n_theta = _check_int("n_theta", n_theta, 4, 2000)
-    H = np.asarray(H, dtype=float)
-    if np.any(~np.isfinite(H)) or np.any(H < 0):
-        raise ValueError("averaging.coefficients: H must be finite and >= 0")
-    o = orbit_nodes(system, H, n_theta)
-    T = o.period
-    v2 = o.v ** 2
-    D = system.noise_intensity(o.x)
-    J1 = o.integrate(v2)
-    J2 = o.integrate(2.0 * v2 * D)
-    K = o.integrate(D)
-    m = (2.0 / T) * (K - system.c * J1) - energy_loss(system, H) / T
-    return T, m, (2.0 / T) * J2
-
 
 class _Regime:
     """Φ on consecutive panels of one variable t (A or s): Legendre antiderivatives."""
@@ -243,33 +204,6 @@ class AveragedSolution(Solution):
         return cls(system, n_theta=meta["n_theta"], n_panel=meta["n_panel"],
                    phi_cut=meta["phi_cut"], regimes=regimes, Z=meta["Z"],
                    H_end=meta["H_end"], f_end=meta["f_end"], moments=meta["moments"])
-
-
-def _gl(lo, hi, t: np.ndarray, gw: np.ndarray):
-    """Gauss–Legendre nodes and weights on [lo, hi] (arrays broadcast; nodes last)."""
-    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    half = 0.5 * (hi - lo)
-    return 0.5 * (hi + lo)[..., None] + half[..., None] * t, half[..., None] * gw
-
-
-def _panel_nodes(edges: np.ndarray, t: np.ndarray, gw: np.ndarray):
-    """Composite Gauss–Legendre on consecutive panels (last axis of ``edges``), flattened."""
-    x, w = _gl(edges[..., :-1], edges[..., 1:], t, gw)
-    shape = x.shape[:-2] + (x.shape[-2] * x.shape[-1],)
-    return x.reshape(shape), w.reshape(shape)
-
-
-def _rate(system: VibroImpactSystem, H: np.ndarray, n_theta: int):
-    """f(H) = (2c J1 + δ)/J2 and the orbit sums ∮ g dt for the moments."""
-    o = orbit_nodes(system, H, n_theta)
-    v2 = o.v ** 2
-    x2 = o.x ** 2
-    J1 = o.integrate(v2)
-    J2 = o.integrate(2.0 * v2 * system.noise_intensity(o.x))
-    f = (2.0 * system.c * J1 + energy_loss(system, H)) / J2
-    sums = {"T": o.period, "x2": 2.0 * o.integrate(x2), "x4": 2.0 * o.integrate(x2 * x2),
-            "y2": 2.0 * J1, "y4": 2.0 * o.integrate(v2 * v2)}
-    return f, sums
 
 
 def _build_regime(system, H_of, dH_of, t_max, h0, phi_start, phi_cut, n_panel, n_theta):
