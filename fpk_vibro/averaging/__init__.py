@@ -2,9 +2,11 @@
 
 - :func:`coefficients` — averaged drift m(H), diffusion σ²(H), quasi-period T(H);
 - :func:`stationary`   — the closed-form stationary density → :class:`AveragedSolution`;
-- :func:`transient`    — the 1-D averaged FPK in time → one solution per time.
+- :func:`transient`    — the 1-D averaged FPK in time → :class:`EnergyGridSolution` per time.
 """
 from .coefficients import coefficients
+from .grid_solution import EnergyGridSolution
 from .stationary import AveragedSolution, stationary
+from .transient import transient
 
-__all__ = ["coefficients", "stationary", "AveragedSolution"]
+__all__ = ["coefficients", "stationary", "transient", "AveragedSolution", "EnergyGridSolution"]
