@@ -1,0 +1,105 @@
+"""Scene validation: every malformed scene is one clear line naming the key, before work."""
+import textwrap
+
+import pytest
+
+from fpk_vibro.scenes import SceneError, load_scene, parse_scene, schema_table
+
+GOOD = """
+[system]
+a = 1.0
+b = 0.2
+c = 0.025
+D1 = 0.01
+D2 = 0.01
+
+[barriers]
+delta = 0.6
+r = 0.92
+
+[study]
+methods = ["averaging"]
+quantities = ["energy", "moments"]
+"""
+
+
+def write(tmp_path, text):
+    p = tmp_path / "scene.toml"
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_good_scene(tmp_path):
+    s = load_scene(write(tmp_path, GOOD))
+    assert s.system.r == 0.92 and s.methods == ("averaging",) and not s.transient
+    assert s.points() == [({}, s.system)]
+    assert s.name == "scene"
+
+
+def test_sweep_points(tmp_path):
+    s = load_scene(write(tmp_path, GOOD + "\n[sweep]\nr = [0.98, 0.92]\nD1 = [0.01, 0.02, 0.03]\n"))
+    pts = s.points()
+    assert len(pts) == 6 and pts[-1][1].D1 == 0.03 and pts[-1][1].r == 0.92
+
+
+BAD = [
+    ("typo in table", GOOD + "\n[sytem]\na = 1\n", "sytem", "system"),
+    ("typo in key", GOOD.replace("D2 = 0.01", "D22 = 0.01"), "system.D22", "D2"),
+    ("typo in study key", GOOD.replace("methods =", "method ="), "study.method", "methods"),
+    ("unknown method", GOOD.replace('["averaging"]', '["averagin"]'), "study.methods", "averaging"),
+    ("unknown quantity", GOOD.replace('"moments"]', '"moment"]'), "study.quantities", "moments"),
+    ("methods not a list", GOOD.replace('["averaging"]', '"averaging"'), "study.methods", "list"),
+    ("empty methods", GOOD.replace('["averaging"]', "[]"), "study.methods", "empty"),
+    ("string number", GOOD.replace("c = 0.025", 'c = "0.025"'), "system.c", "number"),
+    ("bool number", GOOD.replace("c = 0.025", "c = true"), "system.c", "number"),
+    ("negative damping", GOOD.replace("c = 0.025", "c = -1.0"), "system.c", ">= 0"),
+    ("zero D1", GOOD.replace("D1 = 0.01", "D1 = 0.0"), "system.D1", "D1"),
+    ("r above 1", GOOD.replace("r = 0.92", "r = 1.2"), "barriers.r", "[0, 1]"),
+    ("negative delta", GOOD.replace("delta = 0.6", "delta = -0.6"), "barriers.delta", "delta"),
+    ("missing a", GOOD.replace("a = 1.0\n", ""), "system.a", "missing"),
+    ("missing delta", GOOD.replace("delta = 0.6\n", ""), "barriers.delta", "missing"),
+    ("unknown sides", GOOD.replace("r = 0.92", 'r = 0.92\nsides = "left"'), "barriers.sides", "both"),
+    ("missing system", "[barriers]" + GOOD.split("[barriers]")[1], "[system]", "missing"),
+    ("missing study", GOOD.split("[study]")[0], "[study]", "missing"),
+    ("negative time", GOOD.replace('quantities =', 'times = [1.0, -2.0]\nquantities ='), "study.times[1]", ">="),
+    ("transient without initial", GOOD.replace('quantities =', 'times = [1.0]\nquantities ='), "initial.mean", "initial"),
+    ("fem degree 3", GOOD + "\n[fem]\ndegree = 3\n", "fem.degree", "[1, 2]"),
+    ("fem nx float", GOOD + "\n[fem]\nnx = 10.5\n", "fem.nx", "integer"),
+    ("mc paths zero", GOOD + "\n[montecarlo]\nn_paths = 0\n", "montecarlo.n_paths", "[1"),
+    ("unknown solver", GOOD + '\n[fem]\nsolver = "lu"\n', "fem.solver", "auto"),
+    ("sweep unknown parameter", GOOD + "\n[sweep]\ngamma = [1.0]\n", "sweep.gamma", "allowed"),
+    ("sweep invalid value", GOOD + "\n[sweep]\nr = [0.5, 1.5]\n", "sweep.r", "[0, 1]"),
+    ("three sweeps", GOOD + "\n[sweep]\nr = [0.5]\nc = [0.1]\nD1 = [0.1]\n", "sweep", "at most two"),
+    ("exact with r < 1", GOOD.replace('["averaging"]', '["exact"]'), "study.methods", "exact"),
+    ("output format", GOOD + '\n[output]\nformats = ["pdf"]\n', "output.formats", "png"),
+    ("table is a value", "fem = 3\n" + GOOD, "fem", "table"),
+    ("bad toml", GOOD + "\n[study\n", "TOML", "TOML"),
+    ("non-finite", GOOD.replace("c = 0.025", "c = nan"), "system.c", "finite"),
+    ("unconfined side", GOOD.replace("b = 0.2", "b = -0.2").replace("r = 0.92", 'r = 0.92\nsides = "right"'),
+     "system.b", "confine"),
+]
+
+
+@pytest.mark.parametrize("label, text, key, hint", BAD, ids=[b[0] for b in BAD])
+def test_malformed_scene_is_one_line_naming_the_key(tmp_path, label, text, key, hint):
+    with pytest.raises(SceneError) as exc:
+        load_scene(write(tmp_path, text))
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert key in msg and hint in msg
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(SceneError, match="cannot read"):
+        load_scene(tmp_path / "nope.toml")
+
+
+def test_schema_documented():
+    table = schema_table()
+    assert "`system.D1`" in table and "`montecarlo.seed`" in table and "`sweep.r`" in table
+
+
+def test_parse_scene_dict():
+    with pytest.raises(SceneError, match="barriers.r"):
+        parse_scene({"system": dict(a=1, b=0, c=0.1, D1=0.1), "barriers": dict(delta=1, r=-1),
+                     "study": dict(methods=["averaging"])})
