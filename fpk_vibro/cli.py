@@ -2,6 +2,9 @@
 
 Commands
 --------
+run SCENE   run a scene (TOML): results.json, densities.npz, figures
+check SCENE validate a scene without running it
+show DIR    print the summary table of a results directory
 paper       the paper's case end to end (Fig. 3 analogue): p(H) for r = 0.98, 0.92
 bench NAME  benchmarks: ``averaging``, ``montecarlo``, ``fem``
 """
@@ -55,6 +58,63 @@ def cmd_paper(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_run(args: argparse.Namespace) -> int:
+    from .runner import run_scene
+    from .scenes import load_scene
+
+    scene = load_scene(args.scene)
+    if args.reduced:
+        scene = scene.reduced()
+    log = (lambda s: None) if args.quiet else print
+    log(f"fpk-vibro: scene {scene.name!r}: methods {list(scene.methods)}, "
+        f"{len(scene.points())} point(s), effects {scene.system.effects}")
+    doc = run_scene(scene, out=args.out, workers=args.workers, scheduler=args.scheduler, log=log)
+    out = Path(args.out) if args.out else scene.output_dir
+    if not args.quiet:
+        _print_summary(doc)
+        print(f"  wrote {out}/results.json")
+    return 1 if any("error" in p for p in doc["points"]) else 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from .scenes import load_scene
+
+    scene = load_scene(args.scene)
+    print(f"{args.scene}: valid — methods {list(scene.methods)}, quantities "
+          f"{list(scene.quantities)}, {'times ' + str(list(scene.times)) if scene.transient else 'stationary'}, "
+          f"{len(scene.points())} point(s)")
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    import json
+
+    path = Path(args.dir) / "results.json"
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: cannot read results ({exc})") from None
+    _print_summary(doc)
+    return 0
+
+
+def _print_summary(doc: dict) -> None:
+    keys = ("E_H", "E_x2", "E_y2", "P_impact")
+    print(f"  {'point':<24s} {'method':<11s} {'time s':>7s} " + " ".join(f"{k:>18s}" for k in keys))
+    for p in doc["points"]:
+        label = ", ".join(f"{k}={v:g}" for k, v in p["parameters"].items()) or "-"
+        if "error" in p:
+            print(f"  {label:<24s} FAILED: {p['error']}")
+            continue
+        for method, e in p["methods"].items():
+            rec = e["at"][-1] if "at" in e else e
+            m, se = rec["moments"], rec.get("moments_se", {})
+            cells = [(f"{m[k]:.6g}" + (f"±{se[k]:.1g}" if k in se else "")) if k in m else "-"
+                     for k in keys]
+            print(f"  {label:<24s} {method:<11s} {e['wall_time_s']:7.2f} " +
+                  " ".join(f"{c:>18s}" for c in cells))
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     module = importlib.import_module(_BENCHMARKS[args.name])
     return int(module.main(args.rest) or 0)
@@ -64,6 +124,22 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fpk-vibro", description=__doc__.split("\n")[0])
     p.add_argument("--version", action="version", version=f"fpk-vibro {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
+    pr = sub.add_parser("run", help="run a scene (TOML)")
+    pr.add_argument("scene")
+    pr.add_argument("--out", default=None, help="output directory (default: the scene's)")
+    pr.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    pr.add_argument("--reduced", action="store_true",
+                    help="a reduced size (few paths, coarse meshes) for a first look and tests")
+    pr.add_argument("--workers", type=int, default=None, help="local worker processes for a sweep")
+    pr.add_argument("--scheduler", default=None,
+                    help="Dask scheduler ADDRESS for sweeps (extra fpk-vibro[distributed])")
+    pr.set_defaults(func=cmd_run)
+    pc = sub.add_parser("check", help="validate a scene without running it")
+    pc.add_argument("scene")
+    pc.set_defaults(func=cmd_check)
+    ps = sub.add_parser("show", help="summary table of a results directory")
+    ps.add_argument("dir")
+    ps.set_defaults(func=cmd_show)
     pp = sub.add_parser("paper", help="the paper's case end to end (Fig. 3 analogue)")
     pp.add_argument("--out", default="results", help="output directory (default: results)")
     pp.set_defaults(func=cmd_paper)

@@ -59,3 +59,65 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+_LABELS = {"energy": (r"energy $H$", r"$p(H)$"), "x": (r"displacement $x$", r"$p(x)$"),
+           "y": (r"velocity $y$", r"$p(y)$")}
+_STYLE = {"exact": dict(color="k", ls="--", lw=1.2), "averaging": dict(color="C0", lw=1.6),
+          "fem": dict(color="C3", lw=1.4)}
+
+
+def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str,
+                  title: str = "") -> list[Path]:
+    """Figures of a scene point: one per 1-D quantity with every method overlaid
+    (Monte Carlo as histogram points with ±1 standard-error bars), and the joint
+    densities as contour plots side by side.  Returns the files written."""
+    plt = _pyplot()
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for q in [q for q in quantities if q in _LABELS]:
+        fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
+        g = grids[q]
+        for method, sol in solutions.items():
+            if method == "montecarlo":
+                edges, dens, se = sol.histogram(q)
+                mid = 0.5 * (edges[1:] + edges[:-1])
+                keep = (mid >= g[0]) & (mid <= g[-1])
+                ax.errorbar(mid[keep], dens[keep], yerr=se[keep], fmt="o", ms=3, mfc="none",
+                            color="C2", capsize=1.5, lw=0.8, label="Monte Carlo (±1 SE)")
+            else:
+                ax.plot(g, getattr(sol, "pdf_" + q)(g), label=method, **_STYLE.get(method, {}))
+        sysm = next(iter(solutions.values())).system
+        if q == "energy" and sysm.has_barrier and sysm.barrier_energy < g[-1]:
+            ax.axvline(sysm.barrier_energy, color="0.6", ls=":", lw=1, label=r"$G(\Delta)$")
+        if q == "x" and sysm.has_barrier:
+            ax.axvline(sysm.delta, color="0.6", ls=":", lw=1)
+        xl, yl = _LABELS[q]
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        ax.set_title(title, fontsize=9)
+        ax.legend(frameon=False, fontsize=8)
+        fig.tight_layout()
+        path = out_dir / f"{prefix}_{q}.png"
+        fig.savefig(path)
+        plt.close(fig)
+        written.append(path)
+    if "joint" in quantities:
+        gx, gy = grids["joint"]
+        n = len(solutions)
+        fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.8), dpi=110, squeeze=False)
+        for ax, (method, sol) in zip(axes[0], solutions.items()):
+            P = sol.pdf_joint(gx[None, :], gy[:, None])
+            cs = ax.contourf(gx, gy, P, levels=14, cmap="viridis")
+            fig.colorbar(cs, ax=ax, label=r"$p(x, y)$")
+            ax.set_xlabel(r"displacement $x$")
+            ax.set_ylabel(r"velocity $y$")
+            ax.set_title(method, fontsize=9)
+        fig.suptitle(title, fontsize=9)
+        fig.tight_layout()
+        path = out_dir / f"{prefix}_joint.png"
+        fig.savefig(path)
+        plt.close(fig)
+        written.append(path)
+    return written

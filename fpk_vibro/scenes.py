@@ -14,7 +14,7 @@ import difflib
 import itertools
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -207,6 +207,16 @@ class Scene:
     @property
     def transient(self) -> bool:
         return self.times is not None
+
+    def reduced(self) -> "Scene":
+        """The same scene at a small size (quick look, tests): few paths, coarse meshes."""
+        num = {m: dict(v) for m, v in self.numerics.items()}
+        num["montecarlo"].update(n_paths=min(num["montecarlo"].get("n_paths", 512), 512),
+                                 t_sample=min(num["montecarlo"].get("t_sample", 200.0), 200.0))
+        num["fem"].update(nx=min(num["fem"].get("nx", 24), 24), ny=min(num["fem"].get("ny", 32), 32))
+        num["fem"].pop("mesh", None)
+        num["averaging"]["n_cells"] = min(num["averaging"].get("n_cells", 200), 200)
+        return replace(self, numerics=num)
 
     def points(self) -> list[tuple[dict[str, float], VibroImpactSystem]]:
         """[(parameter values, system)] for each sweep point (one point if no sweep)."""

@@ -1,0 +1,232 @@
+"""Run a scene: only the requested methods, quantities and times; results written atomically.
+
+Layout of an output directory::
+
+    results.json            the scene echoed, per point and method: moments (with
+                            standard errors where they exist), wall time, effects
+    densities.npz           grids and densities, keys "p{i}.{method}.{quantity}.{grid|pdf|se}"
+    p{i}_{quantity}.png     figures: p(H), p(x), p(y) with every method overlaid
+    p{i}_joint.png          joint densities side by side
+    p{i}_fem.vtu            the FE field (format "vtu")
+    points/p{i}.json        each sweep point as soon as it finishes
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .model import VibroImpactSystem
+from .scenes import Scene
+
+__all__ = ["run_scene", "run_point", "atomic_write_text", "grids_for"]
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write via a temporary file and rename: readers never see half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _atomic_savez(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def grids_for(system: VibroImpactSystem, reference: Any) -> dict[str, np.ndarray]:
+    """Evaluation grids for H, x, y covering the bulk of ``reference``'s density."""
+    E_H = reference.moments()["E_H"]
+    H_top = 12.0 * E_H
+    lo, hi = system.x_bounds
+    x_top = float(system.amplitude(H_top)) if np.isfinite(system.amplitude(H_top)) else 10.0
+    lo, hi = max(lo, -x_top), min(hi, x_top)
+    y_top = float(np.sqrt(2.0 * H_top))
+    return {"energy": np.linspace(0.0, H_top, 301)[1:], "x": np.linspace(lo, hi, 241),
+            "y": np.linspace(-y_top, y_top, 241),
+            "joint": (np.linspace(lo, hi, 121), np.linspace(-y_top, y_top, 121))}
+
+
+def _solve(method: str, system: VibroImpactSystem, scene: Scene) -> Any:
+    """One method on one system, with the scene's numerics; returns a Solution or a list."""
+    num = dict(scene.numerics.get(method, {}))
+    if method == "exact":
+        from . import exact
+        return exact.gibbs(system)
+    if method == "averaging":
+        from . import averaging
+        if scene.transient:
+            return averaging.transient(system, initial=scene.initial, times=scene.times,
+                                       n_cells=num.get("n_cells", 400))
+        return averaging.stationary(system, n_theta=num["n_theta"], n_panel=num["n_panel"])
+    if method == "montecarlo":
+        from . import montecarlo
+        wanted = tuple(q for q in scene.quantities if q in montecarlo.QUANTITIES)
+        kw = {k: v for k, v in num.items() if k in ("n_paths", "dt", "seed", "bins")}
+        if scene.transient:
+            return list(montecarlo.transient(system, initial=scene.initial, times=scene.times,
+                                             quantities=wanted, progress=False, **kw))
+        kw.update({k: v for k, v in num.items() if k in ("t_burn", "t_sample")})
+        return montecarlo.stationary(system, quantities=wanted, progress=False, **kw)
+    if method == "fem":
+        from . import fem
+        kw = {k: v for k, v in num.items() if k in ("nx", "ny", "y_max", "degree", "solver",
+                                                    "positivity")}
+        if "mesh" in num:
+            import skfem
+            kw["mesh"] = skfem.Mesh.load(num["mesh"])
+        if scene.transient:
+            kw.update({k: v for k, v in num.items() if k in ("dt", "scheme")})
+            return fem.transient(system, initial=scene.initial, times=scene.times, **kw)
+        return fem.stationary(system, **kw)
+    raise ValueError(f"unknown method {method!r}")
+
+
+def _moments_record(sol: Any) -> dict[str, Any]:
+    rec: dict[str, Any] = {"moments": sol.moments()}
+    if hasattr(sol, "moments_se"):
+        rec["moments_se"] = sol.moments_se()
+    for attr in ("mass", "min_density", "residual", "impact_rate", "n_paths", "dt", "partial"):
+        val = getattr(sol, attr, None)
+        if isinstance(val, (int, float, bool, np.floating, np.integer)):
+            rec[attr] = val.item() if hasattr(val, "item") else val
+    return rec
+
+
+def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
+              out_dir: Path) -> dict[str, Any]:
+    """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
+    from . import plotting
+
+    record: dict[str, Any] = {"index": index, "parameters": params, "system": system.to_dict(),
+                              "effects": system.effects, "methods": {}}
+    solutions: dict[str, Any] = {}
+    for method in scene.methods:
+        importlib.import_module(f"fpk_vibro.{method}")   # imports are not the method's time
+        t0 = time.perf_counter()
+        sol = _solve(method, system, scene)
+        wall = time.perf_counter() - t0
+        solutions[method] = sol
+        entry: dict[str, Any] = {"wall_time_s": wall}
+        if scene.transient:
+            entry["times"] = list(scene.times)
+            entry["at"] = [_moments_record(s) for s in sol]
+        else:
+            entry.update(_moments_record(sol))
+        record["methods"][method] = entry
+    arrays: dict[str, np.ndarray] = {}
+    want_density = [q for q in scene.quantities if q != "moments"]
+    if want_density:
+        snapshots = {m: (s[-1] if scene.transient else s) for m, s in solutions.items()}
+        ref = next(iter(snapshots.values()))
+        grids = grids_for(system, ref)
+        for m, sol in snapshots.items():
+            for q in want_density:
+                key = f"p{index}.{m}.{q}"
+                if q == "joint":
+                    gx, gy = grids["joint"]
+                    arrays[f"{key}.x"], arrays[f"{key}.y"] = gx, gy
+                    arrays[f"{key}.pdf"] = sol.pdf_joint(gx[None, :], gy[:, None])
+                else:
+                    g = grids[q]
+                    arrays[f"{key}.grid"] = g
+                    arrays[f"{key}.pdf"] = getattr(sol, "pdf_" + q)(g)
+                    if m == "montecarlo":
+                        edges, dens, se = sol.histogram(q)
+                        arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"] = edges, dens, se
+        if "png" in scene.formats:
+            title = f"{scene.name}" + ("" if not params else " — " + ", ".join(
+                f"{k} = {v:g}" for k, v in params.items()))
+            if scene.transient:
+                title += f", t = {scene.times[-1]:g}"
+            record["figures"] = [str(p.name) for p in plotting.scene_figures(
+                snapshots, grids, want_density, out_dir, f"p{index}", title)]
+    if "vtu" in scene.formats and "fem" in solutions:
+        fem_sol = solutions["fem"][-1] if scene.transient else solutions["fem"]
+        path = out_dir / f"p{index}_fem.vtu"
+        fem_sol.save_vtu(path)
+        record["vtu"] = path.name
+    if "npz" in scene.formats and arrays:
+        _atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
+    atomic_write_text(out_dir / "points" / f"p{index}.json", json.dumps(record, indent=1))
+    return record
+
+
+def _point_job(args: tuple) -> dict[str, Any]:
+    scene, index, params, system, out_dir = args
+    try:
+        return run_point(scene, index, params, system, out_dir)
+    except Exception as exc:  # a failed point is reported, the others go on
+        return {"index": index, "parameters": params, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | None = None,
+              scheduler: str | None = None, log: Callable[[str], None] = print) -> dict[str, Any]:
+    """Run every point of ``scene``; returns (and writes) the results document."""
+    out_dir = Path(out) if out is not None else scene.output_dir
+    out_dir.mkdir(parents=True, exist_ok=True)
+    points = scene.points()
+    jobs = [(scene, i, params, system, out_dir) for i, (params, system) in enumerate(points)]
+    records: list[dict[str, Any]] = []
+    t0 = time.perf_counter()
+    if scheduler is not None:
+        from dask.distributed import Client, as_completed as dask_completed
+        with Client(scheduler) as client:
+            futures = client.map(_point_job, jobs, pure=False)
+            for fut in dask_completed(futures):
+                records.append(_report(fut.result(), len(jobs), log))
+    elif len(jobs) == 1 or workers == 1:
+        for job in jobs:
+            records.append(_report(_point_job(job), len(jobs), log))
+    else:
+        with ProcessPoolExecutor(max_workers=workers or min(len(jobs), os.cpu_count() or 1)) as pool:
+            futures = [pool.submit(_point_job, job) for job in jobs]
+            for fut in as_completed(futures):
+                records.append(_report(fut.result(), len(jobs), log))
+    records.sort(key=lambda r: r["index"])
+    doc = {"scene": scene.source, "name": scene.name, "stationary": not scene.transient,
+           "wall_time_s": time.perf_counter() - t0, "points": records}
+    atomic_write_text(out_dir / "results.json", json.dumps(doc, indent=1))
+    if "npz" in scene.formats:
+        merged: dict[str, np.ndarray] = {}
+        for r in records:
+            f = out_dir / "points" / f"p{r['index']}.npz"
+            if "error" not in r and f.exists():
+                with np.load(f) as data:
+                    merged.update({k: data[k] for k in data.files})
+        if merged:
+            _atomic_savez(out_dir / "densities.npz", merged)
+    return doc
+
+
+def _report(record: dict[str, Any], total: int, log: Callable[[str], None]) -> dict[str, Any]:
+    i = record["index"]
+    params = ", ".join(f"{k}={v:g}" for k, v in record["parameters"].items()) or "single point"
+    if "error" in record:
+        log(f"  point {i + 1}/{total} ({params}) FAILED: {record['error']}")
+    else:
+        times = ", ".join(f"{m} {e['wall_time_s']:.2f} s" for m, e in record["methods"].items())
+        log(f"  point {i + 1}/{total} ({params}) done: {times}")
+    return record

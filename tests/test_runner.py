@@ -1,0 +1,117 @@
+"""Scene runs: only what the scene asks is computed; results written atomically."""
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from fpk_vibro.runner import run_scene
+from fpk_vibro.scenes import load_scene
+
+AVG_ONLY = """
+[system]
+a = 1.0
+b = 0.2
+c = 0.025
+D1 = 0.01
+D2 = 0.0
+
+[barriers]
+delta = 0.6
+r = 0.92
+
+[study]
+methods = ["averaging"]
+quantities = ["energy"]
+"""
+
+
+def write(tmp_path, text, name="scene.toml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_averaging_energy_scene_runs_no_fem_or_monte_carlo(tmp_path):
+    """Timing-independent instrumentation: which modules the run imported."""
+    scene = write(tmp_path, AVG_ONLY)
+    code = textwrap.dedent(f"""
+        import sys
+        from fpk_vibro import cli
+        assert cli.main(["run", {str(scene)!r}, "--out", {str(tmp_path / 'out')!r}, "--quiet"]) == 0
+        print(sorted(m for m in sys.modules if m.startswith(("fpk_vibro.fem", "fpk_vibro.montecarlo",
+                                                              "skfem", "numba", "pyamg"))))
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert r.stdout.strip() == "[]"
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    point = doc["points"][0]
+    assert list(point["methods"]) == ["averaging"]
+    assert "parametric_noise" not in point["effects"]
+    assert {"impact_right", "impact_left"} <= set(point["effects"])
+    assert (tmp_path / "out" / "p0_energy.png").exists()
+    assert not (tmp_path / "out" / "p0_x.png").exists()     # not asked for
+    assert not list((tmp_path / "out").glob("*joint*"))
+
+
+def test_effects_without_barrier_and_with_parametric_noise(tmp_path):
+    text = AVG_ONLY.replace("D2 = 0.0", "D2 = 0.01").replace("delta = 0.6\nr = 0.92", 'sides = "none"')
+    doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", log=lambda s: None)
+    eff = doc["points"][0]["effects"]
+    assert "parametric_noise" in eff and not any(e.startswith("impact") for e in eff)
+
+
+def test_moments_and_densities_saved(tmp_path):
+    text = AVG_ONLY.replace('quantities = ["energy"]', 'quantities = ["energy", "x", "moments"]').replace(
+        "r = 0.92", "r = 1.0").replace('methods = ["averaging"]', 'methods = ["averaging", "exact"]')
+    doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", log=lambda s: None)
+    m = doc["points"][0]["methods"]
+    assert m["averaging"]["moments"]["E_H"] == pytest.approx(m["exact"]["moments"]["E_H"], rel=1e-10)
+    with np.load(tmp_path / "o" / "densities.npz") as d:
+        assert np.allclose(d["p0.averaging.x.pdf"], d["p0.exact.x.pdf"], rtol=1e-9)
+        assert d["p0.averaging.energy.grid"].size == d["p0.averaging.energy.pdf"].size
+
+
+def test_sweep_in_parallel_and_a_failed_point_is_reported(tmp_path):
+    """Linear oscillator without barrier: D2 = 0.2 gives a power-law tail, an error."""
+    text = AVG_ONLY.replace("b = 0.2", "b = 0.0").replace("delta = 0.6\nr = 0.92", 'sides = "none"')
+    text += "\n[sweep]\nD2 = [0.0, 0.2]\n"
+    doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", workers=2, log=lambda s: None)
+    ok, bad = doc["points"]
+    assert "methods" in ok and "error" in bad and "does not converge" in bad["error"]
+    assert bad["parameters"] == {"D2": 0.2}
+    assert (tmp_path / "o" / "points" / "p0.json").exists()
+    assert not list((tmp_path / "o").rglob("*.tmp"))
+
+
+def test_cli_check_and_show(tmp_path, capsys):
+    from fpk_vibro import cli
+    scene = write(tmp_path, AVG_ONLY)
+    assert cli.main(["check", str(scene)]) == 0
+    assert "valid" in capsys.readouterr().out
+    assert cli.main(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
+    assert cli.main(["show", str(tmp_path / "o")]) == 0
+    assert "averaging" in capsys.readouterr().out
+
+
+def test_cli_bad_scene_is_one_line_without_traceback(tmp_path):
+    scene = write(tmp_path, AVG_ONLY.replace("r = 0.92", "r = 2"))
+    r = subprocess.run([sys.executable, "-m", "fpk_vibro", "run", str(scene)], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "barriers.r" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "results").exists()
+
+
+def test_sweep_on_a_dask_cluster(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    text = AVG_ONLY + "\n[sweep]\nr = [0.5, 0.92, 1.0]\n"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o",
+                        scheduler=cluster.scheduler_address, log=lambda s: None)
+    E = [p["methods"]["averaging"]["moments"] for p in doc["points"]]
+    assert [p["parameters"]["r"] for p in doc["points"]] == [0.5, 0.92, 1.0]
+    assert E[0]["E_H"] < E[1]["E_H"] < E[2]["E_H"]
