@@ -121,3 +121,32 @@ def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str
         plt.close(fig)
         written.append(path)
     return written
+
+
+def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") -> Path:
+    """A moment against time for each method (Monte Carlo with ±2 SE bars).
+
+    ``entries``: method → {"times": [...], "at": [{"moments": {...}, "moments_se": {...}}]}
+    as written in results.json.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
+    for method, e in entries.items():
+        t = np.asarray(e["times"], dtype=float)
+        v = np.array([a["moments"][key] for a in e["at"]])
+        if method == "montecarlo":
+            se = np.array([a["moments_se"][key] for a in e["at"]])
+            ax.errorbar(t, v, yerr=2 * se, fmt="o", ms=4, mfc="none", color="C2", capsize=2,
+                        label="Monte Carlo (±2 SE)")
+        else:
+            ax.plot(t, v, marker=".", label=method, **_STYLE.get(method, {}))
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.set_xlabel("time $t$")
+    ax.set_ylabel({"E_H": r"$E[H](t)$", "E_x2": r"$E[x^2](t)$", "E_y2": r"$E[y^2](t)$"}.get(key, key))
+    ax.set_title(title, fontsize=9)
+    ax.legend(frameon=False, fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

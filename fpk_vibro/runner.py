@@ -163,6 +163,11 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                 title += f", t = {scene.times[-1]:g}"
             record["figures"] = [str(p.name) for p in plotting.scene_figures(
                 snapshots, grids, want_density, out_dir, f"p{index}", title)]
+    if scene.transient and "png" in scene.formats and "moments" in scene.quantities:
+        figs = record.setdefault("figures", [])
+        for key in ("E_H", "E_x2", "E_y2"):
+            figs.append(plotting.moment_history(record["methods"], out_dir / f"p{index}_{key}_t.png",
+                                                key=key, title=scene.name).name)
     if "vtu" in scene.formats and "fem" in solutions:
         fem_sol = solutions["fem"][-1] if scene.transient else solutions["fem"]
         path = out_dir / f"p{index}_fem.vtu"
