@@ -1,0 +1,211 @@
+"""Finite elements for the stationary 2-D FPK on the strip with impacts (DESIGN §3).
+
+Public API
+----------
+:func:`stationary`      stationary density → :class:`FEMSolution`
+:func:`assemble`        (L, M) on any skfem basis of the strip (for transient solvers)
+:func:`assemble_tensor` the same by Kronecker products on a tensor-product mesh
+:func:`domain`          the truncated strip and its walls (default ``y_max`` rule)
+
+Modules: ``forms`` (weak forms of DESIGN §3), ``impact`` (B± coupling),
+``generator`` (assembly of L, M), ``mesh``, ``solve``, ``positivity``,
+``solution`` (:class:`FEMSolution`), ``benchmark``.
+
+Measured (exact case r = 1, D2 = 0, paper a, b, c, D1, Δ; ny = 4 nx)
+--------------------------------------------------------------------
+- Q1 and P1: L1 and max-norm order 2.0 (L1 5.4e-4, 1.3e-4, 3.4e-5, 8.4e-6,
+  2.2e-6 at nx = 32 … 500 for Q1).  Mass 1 to ~1e-15, min p ≥ 0 to 1e-9.
+- Q2/P2: order 2 (L1 7.8e-5, 1.7e-5, 4.0e-6, 9.8e-7 at nx = 16 … 128), about 8×
+  more accurate than Q1 per DOF; the largest error sits at (0, 0).  Cause: not
+  the quadrature (2k + 9 instead of 2k + 3 gives the same error to 1e-3), not the
+  pinned row (any replaced row gives the same vector: 1ᵀL = 0), not the impact
+  coupling (Δ = 3, where the walls carry ~1e-9 of the density, shows the same
+  order and location).  Refining only y at fixed nx leaves the error at (0, 0)
+  unchanged, while halving h_x divides it by 4.00 and the L1 error converges at
+  order ~3 in h_y: the order-2 component is the Galerkin discretisation of the
+  pure transport y ∂p/∂x (no diffusion in x) — the textbook loss of one order of
+  Galerkin for a first-order hyperbolic direction (Q1 keeps order 2 by the
+  symmetry of uniform meshes).  Raising it needs a different x-discretisation
+  (upwind/DG in x, order k + ½), not more quadrature.
+- Speed (``python -m fpk_vibro.fem.benchmark``): L1 7.1e-6 with Q2, nx = 48
+  (37 345 DOFs) in 0.3 s; 10⁶ Q1 DOFs assembled + solved in 19–46 s (machine
+  load); the straightforward path (general assembly + SuperLU/COLAMD) is 3–11×
+  slower where it was run.  pyamg AIR / smoothed aggregation do not converge on
+  this matrix (residual 1e-1 … 1 after 19–39 GMRES iterations).
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import skfem
+
+from ..model import VibroImpactSystem
+from .generator import (assemble, assemble_tensor, element_for, mesh_domain,
+                       quadrature_order, tensor_index)
+from .mesh import Domain, default_y_max, domain, load_mesh, structured_mesh
+from .solution import FEMSolution
+from .solve import SOLVERS, solve_stationary
+
+__all__ = ["stationary", "FEMSolution", "assemble", "assemble_tensor", "domain",
+           "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS"]
+
+#: Default number of cells across the strip in x, per degree.
+DEFAULT_NX = {1: 128, 2: 48}
+
+
+def _int_param(name: str, value, minimum: int, even: bool = False) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}")
+    if even and value % 2:
+        raise ValueError(f"{name} must be even (y = 0 must be a mesh line); got {value!r}")
+    return int(value)
+
+
+def _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
+              positivity, assembly) -> None:
+    if not isinstance(system, VibroImpactSystem):
+        raise ValueError(f"system must be a VibroImpactSystem; got {type(system).__name__}")
+    if isinstance(degree, bool) or degree not in (1, 2):
+        raise ValueError(f"degree must be 1 or 2; got {degree!r}")
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {SOLVERS}; got {solver!r}")
+    if element not in ("quad", "tri"):
+        raise ValueError(f"element must be 'quad' or 'tri'; got {element!r}")
+    if assembly not in ("auto", "tensor", "general"):
+        raise ValueError(f"assembly must be 'auto', 'tensor' or 'general'; got {assembly!r}")
+    if not (isinstance(positivity, bool) or positivity in ("upwind", "afc")):
+        raise ValueError(f"positivity must be False, True/'afc' or 'upwind'; got {positivity!r}")
+    if positivity and degree != 1:
+        raise ValueError("positivity=True needs degree=1 (Q1/P1 basis functions are "
+                         "non-negative; Q2/P2 are not)")
+    if isinstance(grading, bool) or not isinstance(grading, (int, float)) \
+            or not math.isfinite(grading) or grading < 0:
+        raise ValueError(f"grading must be a finite number >= 0; got {grading!r}")
+    if mesh is not None:
+        if not isinstance(mesh, (skfem.Mesh, str, Path)):
+            raise ValueError(f"mesh must be a skfem.Mesh or a path; got {type(mesh).__name__}")
+        for name, v in (("nx", nx), ("ny", ny), ("y_max", y_max)):
+            if v is not None:
+                raise ValueError(f"{name} must be None when a mesh is given (the mesh fixes it)")
+        if isinstance(mesh, (str, Path)) and not Path(mesh).exists():
+            raise ValueError(f"mesh: file {str(mesh)!r} does not exist")
+        if assembly == "tensor":
+            raise ValueError("assembly='tensor' needs the built-in structured mesh (mesh=None)")
+        return
+    if nx is not None:
+        _int_param("nx", nx, 2)
+    if ny is not None:
+        _int_param("ny", ny, 2, even=True)
+    if y_max is not None:
+        if isinstance(y_max, bool) or not isinstance(y_max, (int, float, np.floating)) \
+                or not math.isfinite(y_max) or y_max <= 0:
+            raise ValueError(f"y_max must be a finite number > 0; got {y_max!r}")
+    elif system.c == 0:
+        raise ValueError("y_max must be given when c = 0 (no Gibbs tail bound; "
+                         "all dissipation comes from impacts)")
+    if assembly == "tensor" and element != "quad":
+        raise ValueError("assembly='tensor' needs element='quad'")
+
+
+def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
+               ny: int | None = None, y_max: float | None = None, degree: int = 1,
+               solver: str = "auto", element: str = "quad", grading: float = 0.0,
+               positivity: bool = False, assembly: str = "auto") -> FEMSolution:
+    """Stationary density of the 2-D FPK with impact coupling (DESIGN §3).
+
+    Solves L p = 0, ∫ p = 1 where L is the conservative Galerkin generator
+    (``assemble``: ∫ J·∇q − B₊ − B₋, DESIGN §3) on a mesh of the strip.
+
+    Parameters
+    ----------
+    system : VibroImpactSystem
+    mesh : skfem.Mesh or path, optional
+        A mesh of the strip (walls at its x-extremes, symmetric in y, y = 0 a mesh
+        line), e.g. from ``meshes/``.  Default: a structured mesh.
+    nx, ny : int, optional
+        Cells across x and y (``ny`` even).  Default ``nx`` = 128 (Q1) / 48 (Q2),
+        ``ny`` the even number giving cells with h_y ≈ 1.5 h_x.
+    y_max : float, optional
+        Truncation |y| < y_max; default the Gibbs-tail rule of
+        :mod:`fpk_vibro.fem.mesh` (mass beyond < 1e-8).
+    degree : {1, 2}
+        Q1/P1 or Q2/P2 Lagrange elements.
+    solver : {"auto", "direct", "amg", "amg-sa"}
+        See :mod:`fpk_vibro.fem.solve`.
+    element : {"quad", "tri"}
+        Structured quadrilaterals or triangles (ignored with ``mesh``).
+    grading : float
+        ≥ 0: cluster the y-nodes towards y = 0 (sinh map).
+    positivity : bool or {"upwind", "afc"}
+        :mod:`fpk_vibro.fem.positivity`, degree 1 only.  ``"upwind"``: discrete
+        upwinding — the generator becomes an M-matrix generator whose null vector
+        is provably ≥ 0 (first order, strongly diffusive in x).  ``True``/``"afc"``:
+        upwinding plus Kuzmin's algebraic flux correction solved by defect
+        correction; a RuntimeWarning is issued if that iteration does not converge
+        (measured: it does not converge on the hard cases r ≤ 0.3, D1 = 0.002; see
+        the module notes).  Default False: plain Galerkin (order 2 on smooth cases).
+    assembly : {"auto", "tensor", "general"}
+        Kronecker-product assembly (structured quads) or general skfem assembly.
+
+    Returns
+    -------
+    FEMSolution
+
+    Raises
+    ------
+    ValueError
+        Naming the offending parameter, before any work.
+    """
+    _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
+              positivity, assembly)
+    t0 = time.perf_counter()
+    tensor = None
+    if mesh is None:
+        dom = domain(system, y_max)
+        nx = DEFAULT_NX[degree] if nx is None else int(nx)
+        if ny is None:
+            ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
+            ny = max(2, 2 * int(round(0.5 * nx * ratio)))
+        m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
+        if element == "quad" and assembly != "general":
+            tensor = (xs, ys)
+    else:
+        m = load_mesh(mesh) if isinstance(mesh, (str, Path)) else mesh
+        element_for(m, degree)
+        dom = mesh_domain(system, m)
+    if tensor is not None:
+        op = assemble_tensor(system, tensor[0], tensor[1], degree, dom)
+        L, unit, Mmat = op.L, op.unit, op.M
+        ranks = tuple(np.argsort(np.argsort(b.doflocs[0])) for b in (op.xbasis, op.ybasis))
+    else:
+        basis = skfem.CellBasis(m, element_for(m, degree), intorder=quadrature_order(degree))
+        L, Mmat = assemble(system, basis)
+        unit = np.asarray(Mmat.sum(axis=0)).ravel()
+        ranks = None
+    t_asm = time.perf_counter() - t0
+    afc_info = {}
+    if positivity:
+        from .positivity import stationary_afc
+        p, sinfo, afc_info = stationary_afc(L, Mmat, unit, solver=solver, grid=ranks,
+                                            limit=positivity != "upwind")
+    else:
+        p, sinfo = solve_stationary(L, unit, solver=solver, grid=ranks)
+    mass = float(unit @ p)
+    if tensor is not None:
+        if degree == 1:          # MeshQuad.init_tensor numbers vertices x-major: Kronecker order
+            dofs = p
+        else:                    # a one-point basis is enough to read the DOF locations
+            dofs = p[tensor_index(op.xbasis, op.ybasis,
+                                  skfem.CellBasis(m, element_for(m, degree), intorder=1))]
+    else:
+        dofs = p
+    info = {"assembly_seconds": t_asm, "solve_seconds": sinfo.seconds,
+            "solver": sinfo.solver, "iterations": sinfo.iterations,
+            "ordering": sinfo.extra.get("ordering", ""), "ndofs": int(p.size),
+            "assembly": "tensor" if tensor is not None else "general",
+            "positivity": positivity, "y_max": dom.y_max, **afc_info}
+    return FEMSolution(system, m, degree, dofs, residual=sinfo.residual, info=info,
+                       tensor=tensor, mass=mass)

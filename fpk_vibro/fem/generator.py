@@ -1,0 +1,258 @@
+"""Assembly of the FPK generator L and the mass matrix M (DESIGN §3).
+
+The semi-discrete FPK is ``M dp/dt = L p`` with
+
+    (L)_{ij} = ∫ J(φ_j)·∇φ_i − B₊(φ_j, φ_i) − B₋(φ_j, φ_i),     (M)_{ij} = ∫ φ_j φ_i
+
+(rows: test functions).  Since B±(p, 1) = 0 and ∫ J(p)·∇1 = 0, every column of L
+sums to zero: ``1ᵀ L = 0`` is discrete mass conservation, and the stationary density
+is the null vector of L.  A transient solver reuses (L, M) unchanged.
+
+Two assemblers give the same matrices:
+
+- :func:`assemble` — general skfem 2-D assembly on any mesh of the strip
+  (quadrilaterals or triangles, degree 1 or 2);
+- :func:`assemble_tensor` — on a tensor-product mesh each term of J·∇q is
+  (function of x) × (function of y), so L is a short sum of Kronecker products of
+  1-D matrices (DESIGN §3): far fewer quadrature points and no 2-D element loop.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import skfem
+
+from ..model import VibroImpactSystem
+from . import forms
+from .impact import coupling_matrix, wall_matrix_1d
+from .mesh import Domain, Wall
+
+__all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
+           "assemble_tensor_bases", "tensor_index", "tensor_to_basis", "kron_sum",
+           "quadrature_order", "element_for"]
+
+
+def quadrature_order(degree: int) -> int:
+    """Gauss exactness used: 2k + 3 integrates the cubic restoring term exactly
+    against Q_k / P_k products (DESIGN §3: coefficients are cubic in x)."""
+    return 2 * degree + 3
+
+
+def element_for(mesh: skfem.Mesh, degree: int) -> skfem.Element:
+    """Lagrange element of ``degree`` (1 or 2) for a quad or triangle mesh."""
+    if isinstance(mesh, skfem.MeshQuad1):
+        return {1: skfem.ElementQuad1(), 2: skfem.ElementQuad2()}[degree]
+    if isinstance(mesh, skfem.MeshTri1):
+        return {1: skfem.ElementTriP1(), 2: skfem.ElementTriP2()}[degree]
+    raise ValueError(f"mesh: a linear quadrilateral or triangle mesh is required, "
+                     f"got {type(mesh).__name__}")
+
+
+def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
+    """The walls of the strip covered by ``mesh`` (DESIGN §3).
+
+    Barrier sides carry ``system.r``; a truncated side without barrier is an
+    elastic wall (r = 1).  Raises ValueError if a barrier is not on the mesh edge.
+    """
+    x0, x1 = float(mesh.p[0].min()), float(mesh.p[0].max())
+    y0, y1 = float(mesh.p[1].min()), float(mesh.p[1].max())
+    tol = 1e-9 * max(1.0, x1 - x0)
+    if system.barriers == "both" and abs(x0 + system.delta) > tol:
+        raise ValueError(f"mesh: its left edge x = {x0} is not the barrier -Δ = {-system.delta}")
+    if system.has_barrier and abs(x1 - system.delta) > tol:
+        raise ValueError(f"mesh: its right edge x = {x1} is not the barrier Δ = {system.delta}")
+    if abs(y0 + y1) > 1e-9 * max(1.0, y1):
+        raise ValueError(f"mesh: y-range [{y0}, {y1}] must be symmetric about y = 0")
+    if not np.any(np.abs(mesh.p[1]) <= 1e-12 * y1):
+        raise ValueError("mesh: y = 0 must be a mesh line (DESIGN §3)")
+    rl = system.r if system.barriers == "both" else 1.0
+    rr = system.r if system.has_barrier else 1.0
+    return Domain(x0, x1, y1, (Wall(x0, rl, -1), Wall(x1, rr, +1)))
+
+
+def assemble(system: VibroImpactSystem, basis: skfem.CellBasis
+             ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """General 2-D assembly of (L, M) on any strip mesh (module docstring).
+
+    Parameters
+    ----------
+    system : VibroImpactSystem
+    basis : skfem.CellBasis
+        Scalar Lagrange basis on a mesh of the strip (walls at its x-extremes).
+
+    Returns
+    -------
+    L, M : scipy.sparse.csr_matrix
+        Generator (∂p/∂t = L p weakly, DESIGN §3) and mass matrix, basis DOF order.
+    """
+    dom = mesh_domain(system, basis.mesh)
+    s = system
+    L = skfem.asm(forms.transport_x, basis)
+    if s.a != 0 or s.b != 0:
+        L = L + skfem.asm(forms.restoring, basis, a=s.a, b=s.b)
+    if s.c != 0:
+        L = L + skfem.asm(forms.damping, basis, c=s.c)
+    L = L + skfem.asm(forms.diffusion_external, basis, D1=s.D1)
+    if s.D2 != 0:
+        L = L + skfem.asm(forms.diffusion_parametric, basis, D2=s.D2)
+    deg = _degree(basis.elem)
+    for wall in dom.walls:
+        L = L - coupling_matrix(basis, wall, dom.y_max, 2 * deg + 1)
+    M = skfem.asm(forms.mass, basis)
+    return L.tocsr(), M.tocsr()
+
+
+def _degree(elem: skfem.Element) -> int:
+    return 2 if isinstance(elem, (skfem.ElementQuad2, skfem.ElementTriP2,
+                                  skfem.ElementLineP2)) else 1
+
+
+@dataclass
+class TensorOperator:
+    """(L, M) assembled by Kronecker products, DOF (i, j) ↦ i·ny + j.
+
+    Attributes
+    ----------
+    L, M : csr_matrix
+        Generator and mass matrix in Kronecker order.
+    unit : ndarray
+        ∫ φ_(i,j) = (∫ψ_i)(∫χ_j): the normalisation row.
+    xbasis, ybasis : skfem.CellBasis
+        The 1-D bases; DOF coordinates ``xbasis.doflocs[0]``, ``ybasis.doflocs[0]``.
+    domain : Domain
+    """
+    L: sp.csr_matrix
+    M: sp.csr_matrix
+    unit: np.ndarray
+    xbasis: skfem.CellBasis
+    ybasis: skfem.CellBasis
+    domain: Domain
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.xbasis.N, self.ybasis.N
+
+
+def assemble_tensor(system: VibroImpactSystem, xnodes: np.ndarray, ynodes: np.ndarray,
+                    degree: int = 1, dom: Domain | None = None) -> TensorOperator:
+    """Kronecker assembly of (L, M) on the tensor mesh ``xnodes × ynodes``.
+
+    With ψ_i(x) the 1-D x-basis and χ_j(y) the y-basis, the terms of ∫ J·∇q factor:
+
+        ∫ y p ∂q/∂x            = (∫ ψ_j ψ_i')        ⊗ (∫ y χ_l χ_k)
+        −∫ c y p ∂q/∂y         = −c (∫ ψ_j ψ_i)      ⊗ (∫ y χ_l χ_k')
+        −∫ (a x + b x³) p ∂q/∂y = −(∫ (a x+b x³) ψ_j ψ_i) ⊗ (∫ χ_l χ_k')
+        −∫ (D1 + D2 x²) p_y q_y = −(∫ (D1+D2x²) ψ_j ψ_i) ⊗ (∫ χ_l' χ_k')
+        B_wall                 = (e_w e_wᵀ) ⊗ C_wall   (see impact.wall_matrix_1d)
+    """
+    if dom is None:
+        xs, ys = np.sort(xnodes), np.sort(ynodes)
+        mesh = skfem.MeshQuad.init_tensor(xs[[0, -1]], np.array([ys[0], 0.0, ys[-1]]))
+        dom = mesh_domain(system, mesh)
+    bx, by = assemble_tensor_bases(xnodes, ynodes, degree)
+    s = system
+
+    def m1(b, *coef):
+        return skfem.asm(forms.weighted_mass_1d, b, coef=tuple(coef))
+
+    def c1(b, *coef):
+        return skfem.asm(forms.convection_1d, b, coef=tuple(coef))
+
+    Mx, My = m1(bx, 1.0), m1(by, 1.0)
+    Sy = skfem.asm(forms.stiffness_1d, by)
+    terms = [(c1(bx, 1.0), m1(by, 0.0, 1.0))]                    # y p ∂q/∂x
+    if s.c != 0:
+        terms.append((-s.c * Mx, c1(by, 0.0, 1.0)))              # −c y p ∂q/∂y
+    if s.a != 0 or s.b != 0:
+        terms.append((-m1(bx, 0.0, s.a, 0.0, s.b), c1(by, 1.0)))  # −(ax+bx³) p ∂q/∂y
+    D = m1(bx, s.D1, 0.0, s.D2) if s.D2 != 0 else s.D1 * Mx
+    terms.append((-D, Sy))                                        # −D(x) p_y q_y
+    L = kron_sum(terms)
+    xd = bx.doflocs[0]
+    walls = []
+    for wall in dom.walls:
+        iw = int(np.argmin(np.abs(xd - wall.x)))
+        E = sp.csr_matrix(([1.0], ([iw], [iw])), shape=(bx.N, bx.N))
+        walls.append(sp.kron(E, wall_matrix_1d(by, wall, dom.y_max, 2 * degree + 1)))
+    L = L - sum(walls[1:], walls[0])
+    M = kron_sum([(Mx, My)])
+    unit = np.kron(np.asarray(Mx.sum(axis=0)).ravel(), np.asarray(My.sum(axis=0)).ravel())
+    return TensorOperator(L.tocsr(), M.tocsr(), unit, bx, by, dom)
+
+
+def kron_sum(terms: list[tuple[sp.spmatrix, sp.spmatrix]]) -> sp.csr_matrix:
+    """Σ_t X_t ⊗ Y_t in one pass (the Kronecker products of DESIGN §3).
+
+    All X_t (and all Y_t) are put on their common sparsity pattern, stored as
+    padded row arrays (1-D FE matrices have a few entries per row).  Row (i, k) of
+    X ⊗ Y holds X_ij Y_kl at column j·ny + l, for j in row i, l in row k: a 4-D
+    broadcast whose C-order flattening *is* the CSR order, so the CSR arrays are
+    written directly (no COO sort) and the values are Σ_t outer products.
+    """
+    def padded(mats):
+        pat = sp.csr_matrix(sum(abs(m) for m in mats))
+        pat.sum_duplicates()
+        pat.sort_indices()
+        n = pat.shape[0]
+        cnt = np.diff(pat.indptr)
+        w = int(cnt.max())
+        slot = np.arange(pat.nnz) - np.repeat(pat.indptr[:-1], cnt)
+        row = np.repeat(np.arange(n), cnt)
+        cols = np.zeros((n, w), dtype=np.int64)
+        cols[row, slot] = pat.indices
+        mask = np.zeros((n, w), dtype=bool)
+        mask[row, slot] = True
+        vals = []
+        for m in mats:
+            v = np.zeros((n, w))
+            v[row, slot] = np.asarray(sp.csr_matrix(m)[row, pat.indices]).ravel()
+            vals.append(v)
+        return n, cols, mask, vals
+
+    nx, xc, xm, xv = padded([t[0] for t in terms])
+    ny, yc, ym, yv = padded([t[1] for t in terms])
+    mask = (xm[:, None, :, None] & ym[None, :, None, :]).reshape(nx * ny, -1)
+    data = xv[0][:, None, :, None] * yv[0][None, :, None, :]
+    for x, y in zip(xv[1:], yv[1:]):
+        data += x[:, None, :, None] * y[None, :, None, :]
+    cols = xc[:, None, :, None] * ny + yc[None, :, None, :]
+    flat = mask.ravel()
+    indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
+    return sp.csr_matrix((data.ravel()[flat], cols.ravel()[flat], indptr),
+                         shape=(nx * ny, nx * ny))
+
+
+def assemble_tensor_bases(xnodes: np.ndarray, ynodes: np.ndarray, degree: int
+                          ) -> tuple[skfem.CellBasis, skfem.CellBasis]:
+    """The 1-D Lagrange bases (degree 1 or 2) on the x- and y-nodes."""
+    q = quadrature_order(degree)
+    e1 = {1: skfem.ElementLineP1(), 2: skfem.ElementLineP2()}[degree]
+    bx = skfem.CellBasis(skfem.MeshLine(np.asarray(xnodes, float)), e1, intorder=q)
+    by = skfem.CellBasis(skfem.MeshLine(np.asarray(ynodes, float)), e1, intorder=q)
+    return bx, by
+
+
+def tensor_to_basis(op: TensorOperator, basis: skfem.CellBasis) -> np.ndarray:
+    """Index array ``k`` with ``p_basis = p_kron[k]`` for a tensor mesh basis."""
+    return tensor_index(op.xbasis, op.ybasis, basis)
+
+
+def tensor_index(xbasis: skfem.CellBasis, ybasis: skfem.CellBasis,
+                 basis: skfem.CellBasis) -> np.ndarray:
+    """Kronecker index (i·ny + j) of every DOF of the 2-D ``basis``."""
+    xd, yd = xbasis.doflocs[0], ybasis.doflocs[0]
+    ix, iy = np.argsort(xd), np.argsort(yd)
+    loc = basis.doflocs
+
+    def find(sorted_idx, coords, targets):
+        c = coords[sorted_idx]
+        pos = np.clip(np.searchsorted(c, targets), 1, len(c) - 1)
+        left = np.abs(c[pos - 1] - targets) < np.abs(c[pos] - targets)
+        pos = np.where(left, pos - 1, pos)
+        if np.max(np.abs(c[pos] - targets)) > 1e-9 * max(1.0, np.ptp(c)):
+            raise ValueError("mesh: not the tensor-product mesh of the 1-D node arrays")
+        return sorted_idx[pos]
+
+    return find(ix, xd, loc[0]) * len(yd) + find(iy, yd, loc[1])
