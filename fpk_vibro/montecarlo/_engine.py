@@ -1,0 +1,354 @@
+"""Drivers of the Monte Carlo engine: :func:`stationary` and :func:`transient`."""
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..initial import parse_initial
+from ..model import VibroImpactSystem
+from . import _kernel as K
+from . import _setup as S
+from .solution import QUANTITIES, MonteCarloSolution
+
+SCHEME = "BAOAB splitting, impacts located exactly in the free-flight sub-steps"
+
+
+class TransientRun(list):
+    """The list of :class:`MonteCarloSolution` returned by :func:`transient`.
+
+    ``partial`` is True when the run was interrupted (Ctrl-C): the list then holds
+    only the times that were reached, ``times_requested`` all of them.
+    """
+
+    partial: bool = False
+    times_requested: tuple = ()
+
+
+def _ratio(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ratio estimate Σ num_b / Σ den_b over batches b, and its standard error."""
+    tot = den.sum()
+    shape = (-1,) + (1,) * (num.ndim - 1)
+    if tot <= 0:
+        nan = np.full(num.shape[1:], np.nan)
+        return nan, nan.copy()
+    est = num.sum(axis=0) / tot
+    B = den.size
+    if B < 2:
+        return est, np.full_like(est, np.nan)
+    w = (den / tot).reshape(shape)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dev = np.where(w > 0, num / np.where(den > 0, den, 1.0).reshape(shape) - est, 0.0)
+    se = np.sqrt(B / (B - 1) * np.sum((w * dev) ** 2, axis=0))
+    return est, se
+
+
+def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
+            imp: np.ndarray, xext: np.ndarray, dt: float, meta: dict[str, Any]
+            ) -> MonteCarloSolution:
+    n_b = mom[:, K.M_N]
+    arrays: dict[str, np.ndarray] = dict(hist.edges)
+    cols = [K.M_H, K.M_X2, K.M_Y2, K.M_X4, K.M_Y4, K.M_PIMP]
+    est, se = _ratio(mom[:, cols], n_b)
+    arrays["moments"], arrays["moments_se"] = est, se
+    for q, counts, keys in (("energy", hist.hH, ("edges_H",)), ("x", hist.hx, ("edges_x",)),
+                            ("y", hist.hy, ("edges_y",)),
+                            ("joint", hist.hj, ("edges_jx", "edges_jy"))):
+        if q not in meta["quantities"]:
+            continue
+        if len(keys) == 1:
+            vol = np.diff(hist.edges[keys[0]])
+        else:
+            vol = np.outer(np.diff(hist.edges[keys[0]]), np.diff(hist.edges[keys[1]]))
+        d, s = _ratio(counts / vol, n_b)
+        arrays[f"density_{q}"], arrays[f"se_{q}"] = d, s
+    rate, rate_se = _ratio(imp[:, 0], imp[:, 1] * dt)
+    total = float(n_b.sum())
+    meta = dict(meta)
+    meta.update(
+        impact_rate=float(rate), impact_rate_se=float(rate_se), n_samples=int(total),
+        overflow={q: float(mom[:, c].sum() / total) if total else 0.0
+                  for q, c in (("energy", K.M_OVH), ("x", K.M_OVX), ("y", K.M_OVY),
+                               ("joint", K.M_OVJ)) if q in meta["quantities"]},
+        x_seen=[float(xext[:, 0].min()), float(xext[:, 1].max())],
+        scheme=SCHEME, dt=float(dt))
+    return MonteCarloSolution(system, meta, arrays)
+
+
+def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
+                hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
+                frac=None):
+    """Advance in chunks of ~CHUNK_PATH_STEPS path-steps; returns steps done.
+
+    ``stop()`` (checked after every chunk) ends the loop early when True;
+    ``frac(done)`` overrides the completed fraction shown by the progress line.
+    """
+    chunk = max(1, S.CHUNK_PATH_STEPS // max(n_paths, 1))
+    if sample_every > 0:
+        chunk = max(sample_every, chunk // sample_every * sample_every)
+    done = 0
+    while done < n_steps:
+        n = min(chunk, n_steps - done)
+        K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
+                  xext, hist.hH, hist.hx, hist.hy, hist.hj)
+        done += n
+        f0, f1 = done_frac
+        g = done / n_steps if frac is None else frac(done)
+        progress.update(f0 + (f1 - f0) * min(max(g, 0.0), 1.0), label)
+        if stop is not None and stop():
+            break
+    return done
+
+
+def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | None = None,
+               t_burn: float | None = None, t_sample: float | None = None,
+               seed: int | np.random.SeedSequence | None = None,
+               quantities: Sequence[str] = QUANTITIES, bins: int | dict = 100,
+               n_batches: int = 32, target_rse: float = 0.005,
+               max_t_sample: float | None = None, sample_every: int | None = None,
+               max_impacts: int = 64, progress: bool | None = None) -> MonteCarloSolution:
+    """Stationary densities and moments by time-and-ensemble averages (DESIGN §4).
+
+    Parameters
+    ----------
+    system : VibroImpactSystem
+    n_paths : int, default 2048
+        Independent paths, split into ``n_batches`` batches (one random stream
+        each; standard errors from the spread between batches).
+    dt : float, optional
+        Time step; default T0/120 with T0 = 2π/ω0, ω0² = |a| + |b|X², X the
+        amplitude at 5 energy scales D1/c, at most Δ (the paper's case: X = Δ,
+        dt ≈ 0.05, where halving dt moves E[H] by < 0.05 %, measured).  Must be
+        ≤ 1/ω_max, ω_max² = |a| + 3|b|X², X at 30 energy scales (ValueError).
+    t_burn : float, optional
+        Burn-in per path before sampling; default 6/λ with λ the slowest energy
+        relaxation rate (λ = c, or the impact loss rate (1 − r²)/T0 when c = 0).
+    t_sample : float, optional
+        Sampled time per path.  Default None: sample until the relative standard
+        error of E[H] is ≤ ``target_rse`` (checked every chunk of ~8·10⁶
+        path-steps, at least 1/λ and at most ``max_t_sample``, default 10⁴/λ).
+    seed : int, SeedSequence or None
+        Same seed → bit-identical result whatever the number of threads.  None
+        draws fresh entropy (recorded in ``solution.seed_entropy``).
+    quantities : sequence of {"energy", "x", "y", "joint"}
+        Histograms to accumulate (moments are always accumulated).
+    bins : int or dict, default 100
+        n → n bins for H, x, y and n//2 × n//2 for the joint histogram; or a dict
+        ``{quantity: count or equally spaced edges}`` (joint: a pair).  Default
+        ranges: x over the strip (or ±A(H_max) on a side without barrier), H up to
+        H_max = max(1.5 × largest, 10 × mean) burned-in energy, y to ±sqrt(2 H_max).
+    n_batches : int, default 32
+    target_rse : float, default 0.005
+        Relative standard error of E[H] at which an adaptive run stops.
+    max_t_sample : float, optional
+    sample_every : int, optional
+        Steps between samples of each path; default about T0/4 in time.
+    max_impacts : int, default 64
+        Bound on the impacts handled in one free-flight sub-step (see the
+        module docstring).
+    progress : bool or None
+        Progress line on stderr; None: only when stderr is a terminal (shown after
+        2 s).
+
+    Returns
+    -------
+    MonteCarloSolution
+        With ``partial = True`` if interrupted by Ctrl-C during sampling (holds
+        the samples taken so far).
+
+    Raises
+    ------
+    ValueError
+        For an invalid argument (naming it, the allowed range and the value),
+        before any simulation.
+    """
+    F = "stationary"
+    system = S.check_system(F, system)
+    n_paths = S.check_int(F, "n_paths", n_paths, 2, 10**9)
+    n_batches = S.check_int(F, "n_batches", n_batches, 2, n_paths)
+    dt = S.check_dt(F, system, S.default_dt(system) if dt is None else dt)
+    lam = S.relaxation_rate(system)
+    t_burn = S.default_t_burn(system) if t_burn is None else \
+        S.check_float(F, "t_burn", t_burn, 0.0, lo_open=False)
+    if t_sample is not None:
+        t_sample = S.check_float(F, "t_sample", t_sample, 0.0)
+    target_rse = S.check_float(F, "target_rse", target_rse, 0.0, 1.0, hi_open=True)
+    max_t_sample = 1e4 / lam if max_t_sample is None else \
+        S.check_float(F, "max_t_sample", max_t_sample, 0.0)
+    ss = S.check_seed(F, seed)
+    quantities = S.check_quantities(F, quantities)
+    bins = S.check_bins(F, bins)
+    sample_every = S.default_sample_every(system, dt) if sample_every is None else \
+        S.check_int(F, "sample_every", sample_every, 1)
+    max_impacts = S.check_int(F, "max_impacts", max_impacts, 1, 10**6)
+    t_min = sample_every * dt
+    for name, val in (("t_sample", t_sample), ("max_t_sample", max_t_sample)):
+        if val is not None and val < t_min * (1 - 1e-9):
+            raise S.fail(F, name, f">= one sampling interval sample_every*dt = {t_min:.6g}",
+                         val)
+
+    children = ss.spawn(n_batches + 1)
+    rng = S.rng_states(children[:n_batches])
+    gen = np.random.default_rng(children[n_batches])
+    starts = S.block_starts(n_paths, n_batches)
+    xs = np.zeros(n_paths)
+    ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
+    p, ip = S.step_params(system, dt, max_impacts)
+    mom = np.zeros((n_batches, K.NM))
+    imp = np.zeros((n_batches, 2))
+    xext = np.tile([np.inf, -np.inf], (n_batches, 1))
+    none = S.Histograms(system, (), bins, n_batches, 1.0)
+    prog = S.Progress(progress, "stationary")
+    n_burn = math.ceil(t_burn / dt - 1e-9)
+    try:
+        _run_chunks(xs, ys, rng, starts, n_burn, 0, 0, p, ip, mom, imp, xext, none,
+                    n_paths, prog, "burn-in", (0.0, 0.1))
+    except KeyboardInterrupt:
+        prog.close("(interrupted during burn-in: nothing sampled)")
+        raise
+    H = system.energy(xs, ys)
+    gmin = S.potential_min(system)
+    H_max = gmin + max(1.5 * (H.max() - gmin), 10.0 * (H.mean() - gmin))
+    hist = S.Histograms(system, quantities, bins, n_batches, H_max)
+    hist.fill_params(p)
+    imp[:] = 0.0
+    adaptive = t_sample is None
+    n_samp = math.ceil((max_t_sample if adaptive else t_sample) / dt - 1e-9)
+    n_min = math.ceil(1.0 / (lam * dt)) if adaptive else n_samp
+
+    def reached() -> bool:
+        if not adaptive:
+            return False
+        done = imp[:, 1].sum() / n_paths
+        if done < n_min or mom[:, K.M_N].sum() == 0:
+            return False
+        est, se = _ratio(mom[:, [K.M_H]], mom[:, K.M_N])
+        return bool(se[0] <= target_rse * abs(est[0]))
+
+    def fraction(done: int) -> float:
+        if not adaptive or mom[:, K.M_N].sum() == 0:
+            return done / n_samp
+        est, se = _ratio(mom[:, [K.M_H]], mom[:, K.M_N])
+        # the standard error falls like 1/sqrt(time): fraction of the time needed
+        need = (se[0] / (target_rse * abs(est[0]))) ** 2 if est[0] != 0 else math.inf
+        return max(done / n_samp, min(1.0, 1.0 / need) if need > 0 else 1.0)
+
+    partial = False
+    try:
+        _run_chunks(xs, ys, rng, starts, n_samp, 0, sample_every, p, ip, mom, imp, xext,
+                    hist, n_paths, prog, "sampling", (0.1, 1.0), stop=reached,
+                    frac=fraction)
+    except KeyboardInterrupt:
+        partial = True
+        print("\n[montecarlo] interrupted: returning the samples taken so far "
+              "(solution.partial = True)", file=sys.stderr)
+    if partial and mom[:, K.M_N].sum() == 0:
+        raise KeyboardInterrupt("montecarlo.stationary interrupted before any sample")
+    prog.close()
+    t_done = float(imp[:, 1].sum() / n_paths * dt)
+    meta = dict(n_paths=n_paths, n_batches=n_batches, t_burn=float(n_burn * dt),
+                t_sample=t_done, time=None, seed_entropy=ss.entropy, partial=partial,
+                sample_every=sample_every, quantities=list(quantities),
+                mode=system.barriers, target_rse=target_rse if adaptive else None,
+                spawn_key=list(ss.spawn_key))
+    return _reduce(system, hist, mom, imp, xext, dt, meta)
+
+
+def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
+              n_paths: int = 4096, dt: float | None = None,
+              seed: int | np.random.SeedSequence | None = None,
+              quantities: Sequence[str] = QUANTITIES, bins: int | dict = 60,
+              n_batches: int = 32, max_impacts: int = 64,
+              progress: bool | None = None) -> TransientRun:
+    """Ensemble densities at given times from an initial density (DESIGN §4).
+
+    Parameters
+    ----------
+    system : VibroImpactSystem
+    initial : dict or callable
+        ``{"mean": (x0, y0), "std": (sx, sy)}`` (x truncated to the strip, std 0 =
+        exactly that value) or ``initial(n, rng)`` returning samples; see
+        :mod:`fpk_vibro.initial`.
+    times : sequence of float
+        Increasing times ≥ 0 (0 gives the initial ensemble).  Each interval is
+        split into equal steps of at most ``dt``, so every time is hit exactly.
+    n_paths : int, default 4096
+    dt : float, optional
+        Largest time step; default as in :func:`stationary`.
+    seed, quantities, n_batches, max_impacts, progress
+        As in :func:`stationary`.
+    bins : int or dict, default 60
+        As in :func:`stationary`; default ranges follow the ensemble at each time
+        (H up to its largest value, so nothing overflows).
+
+    Returns
+    -------
+    TransientRun
+        A list with one :class:`MonteCarloSolution` per time (``time``,
+        ``impact_rate`` over the interval ending there); ``partial`` True and
+        fewer entries if interrupted by Ctrl-C.
+    """
+    F = "transient"
+    system = S.check_system(F, system)
+    try:
+        tarr = np.asarray(times, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise S.fail(F, "times", "a sequence of finite increasing numbers >= 0", times) \
+            from None
+    if tarr.size == 0 or not np.all(np.isfinite(tarr)) or tarr[0] < 0 or \
+            np.any(np.diff(tarr) <= 0):
+        raise S.fail(F, "times", "a non-empty sequence of finite, strictly increasing "
+                     "numbers >= 0", times)
+    n_paths = S.check_int(F, "n_paths", n_paths, 2, 10**9)
+    n_batches = S.check_int(F, "n_batches", n_batches, 2, n_paths)
+    dt = S.check_dt(F, system, S.default_dt(system) if dt is None else dt)
+    ss = S.check_seed(F, seed)
+    quantities = S.check_quantities(F, quantities)
+    bins = S.check_bins(F, bins)
+    max_impacts = S.check_int(F, "max_impacts", max_impacts, 1, 10**6)
+    init = parse_initial(initial, system)
+
+    children = ss.spawn(n_batches + 1)
+    rng = S.rng_states(children[:n_batches])
+    gen = np.random.default_rng(children[n_batches])
+    starts = S.block_starts(n_paths, n_batches)
+    xs, ys = init.sample(n_paths, gen)
+    xs, ys = np.ascontiguousarray(xs, dtype=float), np.ascontiguousarray(ys, dtype=float)
+    none = S.Histograms(system, (), bins, n_batches, 1.0)
+    gmin = S.potential_min(system)
+    prog = S.Progress(progress, "transient")
+    out = TransientRun()
+    out.times_requested = tuple(float(t) for t in tarr)
+    t_now = 0.0
+    try:
+        for t in tarr:
+            n = math.ceil((t - t_now) / dt - 1e-9)
+            h = (t - t_now) / n if n > 0 else dt
+            p, ip = S.step_params(system, h, max_impacts)
+            imp = np.zeros((n_batches, 2))
+            mom = np.zeros((n_batches, K.NM))
+            xext = np.tile([np.inf, -np.inf], (n_batches, 1))
+            frac = (t_now / tarr[-1], t / tarr[-1]) if tarr[-1] > 0 else (0.0, 1.0)
+            _run_chunks(xs, ys, rng, starts, n, 0, 0, p, ip, mom, imp, xext, none,
+                        n_paths, prog, f"t={t:g}", frac)
+            t_now = float(t)
+            H = system.energy(xs, ys)
+            H_max = float(H.max())
+            H_max = H_max + max(1e-9 * abs(H_max - gmin), 1e-12)
+            hist = S.Histograms(system, quantities, bins, n_batches, H_max)
+            hist.fill_params(p)
+            K.snapshot(xs, ys, starts, p, mom, xext, hist.hH, hist.hx, hist.hy, hist.hj)
+            meta = dict(n_paths=n_paths, n_batches=n_batches, t_burn=0.0, t_sample=0.0,
+                        time=t_now, seed_entropy=ss.entropy, partial=False,
+                        sample_every=0, quantities=list(quantities), mode=system.barriers,
+                        initial=init.describe(), spawn_key=list(ss.spawn_key))
+            out.append(_reduce(system, hist, mom, imp, xext, h, meta))
+    except KeyboardInterrupt:
+        out.partial = True
+        print(f"\n[montecarlo] interrupted: returning {len(out)} of {tarr.size} times "
+              "(run.partial = True)", file=sys.stderr)
+    prog.close()
+    return out

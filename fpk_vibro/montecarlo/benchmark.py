@@ -1,0 +1,182 @@
+"""Benchmark of the Monte Carlo engine (issue 3): ``python -m fpk_vibro.montecarlo.benchmark``.
+
+Prints
+
+1. path-steps per second of the stationary kernel (the paper's r = 0.92 case,
+   default dt, default sampling of all four histograms) next to the rate at which
+   the kernel's own random source (xoshiro256+ with ziggurat normals, same
+   blocking, same compiled parallel loop) draws standard normals alone — the
+   floor of one normal per path-step — single-thread and with all cores;
+2. the bias of E[H] against dt (each run to a target relative standard error,
+   compared with the run at half the default dt);
+3. the wall time of ``stationary(VibroImpactSystem.paper(r=0.92),
+   target_rse=1e-3)`` in a fresh interpreter (import, cached compilation,
+   burn-in and sampling included).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numba
+import numpy as np
+
+from ..model import VibroImpactSystem
+from . import _kernel as K
+from . import _setup as S
+from ._engine import stationary
+from .solution import QUANTITIES
+
+WALL_SNIPPET = """
+import time; t0 = time.perf_counter()
+from fpk_vibro import VibroImpactSystem
+from fpk_vibro.montecarlo import stationary
+sol = stationary(VibroImpactSystem.paper(r=0.92), seed=2024, target_rse={rse!r})
+m, se = sol.moments()["E_H"], sol.moments_se()["E_H"]
+print(f"{{time.perf_counter() - t0:.3f}} {{m:.6f}} {{se:.3g}} {{sol.t_sample:.1f}} {{sol.n_paths}} {{sol.dt:.5f}}")
+"""
+
+
+def _kernel_setup(system, n_paths, n_batches, seed):
+    dt = S.default_dt(system)
+    p, ip = S.step_params(system, dt, 64)
+    ss = np.random.SeedSequence(seed)
+    rng = S.rng_states(ss.spawn(n_batches))
+    starts = S.block_starts(n_paths, n_batches)
+    gen = np.random.default_rng(seed)
+    xs = np.zeros(n_paths)
+    ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
+    hist = S.Histograms(system, QUANTITIES, S.check_bins("bench", 100), n_batches, 1.5)
+    hist.fill_params(p)
+    mom = np.zeros((n_batches, K.NM))
+    imp = np.zeros((n_batches, 2))
+    xext = np.tile([np.inf, -np.inf], (n_batches, 1))
+    every = S.default_sample_every(system, dt)
+    return dict(xs=xs, ys=ys, rng=rng, starts=starts, p=p, ip=ip, mom=mom, imp=imp,
+                xext=xext, hist=hist, every=every, dt=dt)
+
+
+def _time_kernel(st, n_steps, sample=True):
+    h = st["hist"]
+    t = time.perf_counter()
+    K.advance(st["xs"], st["ys"], st["rng"], st["starts"], n_steps, 0,
+              st["every"] if sample else 0, st["p"], st["ip"], st["mom"], st["imp"],
+              st["xext"], h.hH, h.hx, h.hy, h.hj)
+    return time.perf_counter() - t
+
+
+def _time_floor(st, per_block):
+    t = time.perf_counter()
+    K.normals_floor(st["rng"], per_block)
+    return time.perf_counter() - t
+
+
+def rates(n_paths=2048, n_batches=32, path_steps=1.6e8, repeats=3, threads=None):
+    """Best-of-``repeats`` rates (path-steps/s, normals/s) per thread count."""
+    system = VibroImpactSystem.paper(r=0.92)
+    st = _kernel_setup(system, n_paths, n_batches, 7)
+    _time_kernel(st, 4)                      # compile / load the cache
+    _time_floor(st, 4)
+    n_steps = max(2, int(path_steps // n_paths))
+    per_block = n_steps * n_paths // n_batches
+    total = per_block * n_batches
+    old = numba.get_num_threads()
+    out = {}
+    try:
+        for nt in threads or sorted({1, numba.config.NUMBA_NUM_THREADS}):
+            numba.set_num_threads(nt)
+            tk, tn, tk0 = [], [], []
+            for _ in range(repeats):
+                tk.append(_time_kernel(st, n_steps))
+                tk0.append(_time_kernel(st, n_steps, sample=False))
+                tn.append(_time_floor(st, per_block))
+            out[nt] = (n_steps * n_paths / min(tk), n_steps * n_paths / min(tk0),
+                       total / min(tn))
+    finally:
+        numba.set_num_threads(old)
+    return out
+
+
+def bias_table(factors=(4.0, 2.0, 1.0, 0.5), target_rse=2e-3, seed=99):
+    """E[H] of the paper r = 0.92 case for dt = factor × default dt.
+
+    The last (smallest) dt is the reference; it is run to half the relative
+    standard error so that its own noise does not dominate the differences.
+    """
+    system = VibroImpactSystem.paper(r=0.92)
+    dt0 = S.default_dt(system)
+    rows = []
+    for i, f in enumerate(factors):
+        t = time.perf_counter()
+        rse = target_rse if i < len(factors) - 1 else target_rse / 2
+        sol = stationary(system, dt=f * dt0, target_rse=rse, seed=seed + i,
+                         quantities=())
+        rows.append((f * dt0, sol.moments()["E_H"], sol.moments_se()["E_H"],
+                     time.perf_counter() - t))
+    return rows
+
+
+def wall_time(rse=1e-3):
+    env = dict(os.environ)
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+    t = time.perf_counter()
+    res = subprocess.run([sys.executable, "-c", WALL_SNIPPET.format(rse=rse)], env=env,
+                         capture_output=True, text=True, check=True)
+    total = time.perf_counter() - t
+    inner, m, se, ts, n, dt = res.stdout.split()
+    return total, float(inner), float(m), float(se), float(ts), int(n), float(dt)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark; returns 0 (targets are reported, not asserted)."""
+    ap = argparse.ArgumentParser(prog="python -m fpk_vibro.montecarlo.benchmark",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="smaller sizes (rough figures)")
+    ap.add_argument("--skip-bias", action="store_true")
+    ap.add_argument("--skip-wall", action="store_true")
+    ap.add_argument("--bias-rse", type=float, default=2e-3,
+                    help="target relative SE of each E[H] in the dt table (default 2e-3)")
+    args = ap.parse_args(argv)
+    ncpu = numba.config.NUMBA_NUM_THREADS
+    print(f"fpk_vibro Monte Carlo benchmark — numba {numba.__version__}, "
+          f"{ncpu} thread(s) available, load average {os.getloadavg()[0]:.2f}")
+    print("\n1. kernel rate vs the random source's normal rate "
+          "(paper r=0.92, default dt, 2048 paths, 32 blocks)")
+    r = rates(path_steps=3e7 if args.quick else 1.6e8, repeats=2 if args.quick else 3)
+    print(f"   {'threads':>7} {'kernel (sampling)':>18} {'kernel (no sampling)':>21} "
+          f"{'normals alone':>14} {'kernel/floor':>12}")
+    for nt, (k, k0, n) in r.items():
+        print(f"   {nt:>7} {k:>14.3e}/s {k0:>17.3e}/s {n:>12.3e}/s {k / n:>12.2f}")
+    if 1 in r and ncpu > 1 and ncpu in r:
+        print(f"   speed-up on {ncpu} threads: kernel {r[ncpu][0] / r[1][0]:.2f}x, "
+              f"normals {r[ncpu][2] / r[1][2]:.2f}x   "
+              f"(targets: kernel/floor >= 0.5 single-thread, speed-up >= 1.8)")
+    if not args.skip_bias:
+        print(f"\n2. bias of E[H] against dt (paper r=0.92; each run to relative SE "
+              f"{args.bias_rse:g}; reference: the smallest dt, to {args.bias_rse / 2:g})")
+        rows = bias_table(target_rse=args.bias_rse)
+        dref, mref, sref, _ = rows[-1]
+        print(f"   {'dt':>8} {'E[H]':>9} {'SE':>9} {'E[H]-ref':>10} {'in comb. SE':>11} "
+              f"{'time':>6}")
+        for dt, m, se, t in rows:
+            d = m - mref
+            z = d / math.hypot(se, sref) if dt != dref else 0.0
+            print(f"   {dt:8.4f} {m:9.5f} {se:9.2e} {d:+10.2e} {z:+11.2f} {t:5.1f}s")
+    if not args.skip_wall:
+        rse = 1e-2 if args.quick else 1e-3
+        print(f"\n3. wall time, paper r=0.92, E[H] to relative SE {rse:g} "
+              "(fresh interpreter: import, cached compile, burn-in, sampling)")
+        total, inner, m, se, ts, n, dt = wall_time(rse)
+        print(f"   {total:.2f} s wall ({inner:.2f} s from import to result): E[H] = {m:.5f} "
+              f"± {se:.2g} (rel {se / m:.2e}), {n} paths × {ts:.0f} time units, dt={dt:.4f}"
+              f"   (target <= 10 s)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

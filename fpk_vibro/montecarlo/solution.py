@@ -1,0 +1,160 @@
+"""The Monte Carlo result: histograms with standard errors (DESIGN §4)."""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..model import VibroImpactSystem
+from ..solution import Solution
+
+__all__ = ["MonteCarloSolution", "QUANTITIES"]
+
+QUANTITIES = ("energy", "x", "y", "joint")
+_MOMENT_NAMES = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
+_HISTS = {"energy": ("edges_H",), "x": ("edges_x",), "y": ("edges_y",),
+          "joint": ("edges_jx", "edges_jy")}
+_META_KEYS = ("dt", "n_paths", "n_batches", "t_sample", "t_burn", "time", "seed_entropy",
+              "partial", "impact_rate", "impact_rate_se", "n_samples", "sample_every",
+              "quantities", "mode", "overflow", "x_seen", "scheme")
+
+
+def _lookup(edges: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bin index of each v (right end of the last bin included) and an inside mask."""
+    k = np.searchsorted(edges, v, side="right") - 1
+    k = np.where(v == edges[-1], edges.size - 2, k)
+    inside = (k >= 0) & (k < edges.size - 1) & np.isfinite(v)
+    return np.clip(k, 0, edges.size - 2), inside
+
+
+class MonteCarloSolution(Solution):
+    """Histogram densities and moments estimated by Monte Carlo.
+
+    Built by :func:`fpk_vibro.montecarlo.stationary` (time-and-ensemble averages
+    after burn-in) or :func:`fpk_vibro.montecarlo.transient` (ensemble at one
+    time).  Densities are piecewise constant on the histogram bins (normalised by
+    the total number of samples, so samples outside the histogram range — see
+    ``overflow`` — are missing mass) and zero outside the strip.  Standard errors
+    come from the spread between ``n_batches`` independent batches of paths
+    (each batch has its own random stream).
+
+    Attributes
+    ----------
+    system : VibroImpactSystem
+    dt : float
+        Time step used.
+    n_paths, n_batches : int
+        Paths simulated and independent batches they were split into.
+    t_burn, t_sample : float
+        Burn-in time and sampled time per path (stationary; ``t_sample`` is 0 and
+        ``time`` the snapshot time for transient results).
+    time : float or None
+        Time of a transient snapshot; ``None`` for stationary results.
+    impact_rate, impact_rate_se : float
+        Impacts per unit time per path (stationary: over the sampled time;
+        transient: over the interval ending at ``time``) and its standard error.
+    n_samples : int
+        Number of (x, y) samples accumulated (paths × sampling instants).
+    partial : bool
+        True when the run was interrupted (Ctrl-C) and holds what was finished.
+    overflow : dict
+        Fraction of samples outside each histogram's range.
+    x_seen : tuple of float
+        Smallest and largest x among the samples (always inside the strip).
+    histograms : dict
+        ``name -> (edges..., density, standard error)`` for each requested quantity.
+    """
+
+    kind = "montecarlo"
+
+    def __init__(self, system: VibroImpactSystem, meta: dict[str, Any],
+                 arrays: dict[str, np.ndarray]) -> None:
+        self.system = system
+        self._meta = dict(meta)
+        self._arrays = {k: np.asarray(v) for k, v in arrays.items()}
+        for key in _META_KEYS:
+            setattr(self, key, self._meta.get(key))
+        self.quantities = tuple(self._meta.get("quantities", ()))
+        self.partial = bool(self._meta.get("partial", False))
+        self.x_seen = tuple(self._meta.get("x_seen", (np.nan, np.nan)))
+
+    # -- histogram access ---------------------------------------------------------
+    def _need(self, name: str) -> None:
+        if name not in self.quantities:
+            raise ValueError(f"MonteCarloSolution: the {name!r} histogram was not "
+                             f"accumulated (quantities={self.quantities}); rerun with "
+                             f"quantities including {name!r}")
+
+    @property
+    def histograms(self) -> dict[str, tuple[np.ndarray, ...]]:
+        out = {}
+        for q in self.quantities:
+            edges = tuple(self._arrays[e] for e in _HISTS[q])
+            out[q] = edges + (self._arrays[f"density_{q}"], self._arrays[f"se_{q}"])
+        return out
+
+    def histogram(self, name: str) -> tuple[np.ndarray, ...]:
+        """``(edges, density, se)`` for "energy", "x", "y"; ``(xedges, yedges,
+        density, se)`` for "joint" (density indexed [ix, iy])."""
+        self._need(name)
+        return self.histograms[name]
+
+    # -- densities ----------------------------------------------------------------
+    def _pdf1(self, name: str, v: np.ndarray) -> np.ndarray:
+        self._need(name)
+        edges = self._arrays[_HISTS[name][0]]
+        dens = self._arrays[f"density_{name}"]
+        v = np.asarray(v, dtype=float)
+        k, inside = _lookup(edges, v)
+        return np.where(inside, dens[k], 0.0)
+
+    def pdf_energy(self, H: np.ndarray) -> np.ndarray:
+        """Histogram density of H (zero outside the histogram range)."""
+        return self._pdf1("energy", H)
+
+    def pdf_x(self, x: np.ndarray) -> np.ndarray:
+        """Histogram density of x (zero outside the strip)."""
+        x = np.asarray(x, dtype=float)
+        return np.where(self.system.in_strip(x), self._pdf1("x", x), 0.0)
+
+    def pdf_y(self, y: np.ndarray) -> np.ndarray:
+        """Histogram density of y (zero outside the histogram range)."""
+        return self._pdf1("y", y)
+
+    def pdf_joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """2-D histogram density p(x, y), broadcasting x with y; zero off the strip."""
+        self._need("joint")
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        kx, inx = _lookup(self._arrays["edges_jx"], x)
+        ky, iny = _lookup(self._arrays["edges_jy"], y)
+        dens = self._arrays["density_joint"]
+        return np.where(inx & iny & self.system.in_strip(x), dens[kx, ky], 0.0)
+
+    # -- moments ------------------------------------------------------------------
+    def _moment_dict(self, key: str) -> dict[str, float]:
+        vals = self._arrays[key]
+        names = _MOMENT_NAMES if self.system.has_barrier else _MOMENT_NAMES[:-1]
+        return {n: float(vals[i]) for i, n in enumerate(names)}
+
+    def moments(self) -> dict[str, float]:
+        """E[H], E[x²], E[y²], E[x⁴], E[y⁴], P_impact = P(H > G(Δ)) (if barrier)."""
+        return self._moment_dict("moments")
+
+    def moments_se(self) -> dict[str, float]:
+        """Standard errors of :meth:`moments` (from independent batches of paths)."""
+        return self._moment_dict("moments_se")
+
+    # -- persistence --------------------------------------------------------------
+    def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return dict(self._meta), dict(self._arrays)
+
+    @classmethod
+    def _from_state(cls, system: VibroImpactSystem, meta: dict[str, Any],
+                    arrays: dict[str, np.ndarray]) -> "MonteCarloSolution":
+        return cls(system, meta, arrays)
+
+    def __repr__(self) -> str:
+        when = "stationary" if self.time is None else f"t={self.time:g}"
+        flag = ", PARTIAL" if self.partial else ""
+        return (f"MonteCarloSolution({when}, n_paths={self.n_paths}, dt={self.dt:g}, "
+                f"t_sample={self.t_sample:g}{flag}, system={self.system!r})")
