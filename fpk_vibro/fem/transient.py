@@ -1,0 +1,250 @@
+"""The 2-D FPK in time (DESIGN §3): M dp/dt = L p from a given initial density.
+
+Same generator L and mass matrix M as :func:`fpk_vibro.fem.stationary`.  Schemes:
+
+- ``"bdf2"`` (default): variable-step BDF2, L-stable and second order; the first
+  step of a run is implicit Euler.  With ω = dt_n/dt_(n−1):
+  ((1+2ω)/(1+ω) M − dt_n L) pⁿ⁺¹ = M((1+ω) pⁿ − ω²/(1+ω) pⁿ⁻¹).
+- ``"theta"``: (M − θ dt L) pⁿ⁺¹ = (M + (1−θ) dt L) pⁿ; θ = 1 implicit Euler,
+  θ = ½ Crank–Nicolson (stable but undamped at large dt, DESIGN §3).
+
+Because 1ᵀL = 0, every scheme keeps ∫p = 1ᵀM p exactly (to the round-off of the
+sparse LU solves).  Each distinct matrix is factorised once (SuperLU) and reused.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from typing import Any, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+import skfem
+
+from ..initial import parse_initial
+from ..model import VibroImpactSystem
+from ..solution import Solution
+from .generator import assemble, assemble_tensor, element_for, quadrature_order, tensor_index
+from .mesh import domain, load_mesh, structured_mesh
+from .solution import FEMSolution
+
+__all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
+
+SCHEMES = ("bdf2", "theta")
+
+
+class Discretisation:
+    """Mesh, generator L, mass M and the map from the solver's vector to mesh DOFs."""
+
+    def __init__(self, system: VibroImpactSystem, mesh: skfem.Mesh, degree: int,
+                 L: sp.csr_matrix, M: sp.csr_matrix, unit: np.ndarray, order: np.ndarray | None,
+                 tensor: tuple[np.ndarray, np.ndarray] | None, points: np.ndarray) -> None:
+        self.system, self.mesh, self.degree = system, mesh, degree
+        self.L, self.M, self.unit = L, M, unit
+        self.order, self.tensor, self.points = order, tensor, points
+
+    def solution(self, p: np.ndarray, **info: Any) -> FEMSolution:
+        dofs = p if self.order is None else p[self.order]
+        return FEMSolution(self.system, self.mesh, self.degree, dofs, residual=0.0,
+                           info=info, tensor=self.tensor, mass=float(self.unit @ p))
+
+
+def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
+               ny: int | None = None, y_max: float | None = None, degree: int = 1,
+               element: str = "quad", grading: float = 0.0) -> Discretisation:
+    """Build the mesh and assemble (L, M) exactly as :func:`stationary` does."""
+    from . import DEFAULT_NX, _validate
+    _validate(system, mesh, nx, ny, y_max, degree, "auto", element, grading, False, "auto")
+    if mesh is None:
+        dom = domain(system, y_max)
+        nx = DEFAULT_NX[degree] if nx is None else int(nx)
+        if ny is None:
+            ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
+            ny = max(2, 2 * int(round(0.5 * nx * ratio)))
+        m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
+        if element == "quad":
+            op = assemble_tensor(system, xs, ys, degree, dom)
+            order = None
+            if degree == 2:
+                order = tensor_index(op.xbasis, op.ybasis,
+                                     skfem.CellBasis(m, element_for(m, degree), intorder=1))
+            pts = np.stack(np.meshgrid(op.xbasis.doflocs[0], op.ybasis.doflocs[0],
+                                       indexing="ij")).reshape(2, -1)
+            return Discretisation(system, m, degree, op.L, op.M, op.unit, order, (xs, ys), pts)
+    else:
+        m = mesh if isinstance(mesh, skfem.Mesh) else load_mesh(mesh)
+        element_for(m, degree)
+    basis = skfem.CellBasis(m, element_for(m, degree), intorder=quadrature_order(degree))
+    L, M = assemble(system, basis)
+    return Discretisation(system, m, degree, L, M, np.asarray(M.sum(axis=0)).ravel(), None,
+                          None, basis.doflocs)
+
+
+def _initial_vector(disc: Discretisation, initial: Any) -> np.ndarray:
+    """Nodal values of the initial density, renormalised to ∫p = 1 (non-negative)."""
+    x, y = disc.points
+    if isinstance(initial, Solution):
+        p0 = initial.pdf_joint(x, y)
+    elif callable(initial) and not isinstance(initial, dict):
+        p0 = np.asarray(initial(x, y), dtype=float)
+        if p0.shape != x.shape or not np.all(np.isfinite(p0)) or np.any(p0 < 0):
+            raise ValueError("initial: a callable p0(x, y) must return finite values >= 0 of "
+                             "the shape of its arguments")
+    else:
+        init = parse_initial(initial, disc.system)
+        (mx, my), (sx, sy) = init.mean, init.std
+        # a mesh cannot hold a point mass: a zero std becomes one cell width
+        hx = np.ptp(x) / max(1, np.unique(x).size - 1)
+        hy = np.ptp(y) / max(1, np.unique(y).size - 1)
+        p0 = (np.exp(-0.5 * ((x - mx) / max(sx, hx)) ** 2)
+              * np.exp(-0.5 * ((y - my) / max(sy, hy)) ** 2))
+    total = float(disc.unit @ p0)
+    if not total > 0:
+        raise ValueError("initial: the initial density has no mass on the mesh "
+                         f"(|y| < {np.max(np.abs(y)):.3g}); move it inside or raise y_max")
+    return p0 / total
+
+
+def _check_times(times: Any) -> np.ndarray:
+    try:
+        t = np.asarray(times, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"fem.transient: times must be numbers >= 0; got {times!r}") from None
+    if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t < 0) or np.any(np.diff(t) <= 0):
+        raise ValueError("fem.transient: times must be a non-empty, strictly increasing "
+                         f"sequence of finite numbers >= 0; got {times!r}")
+    return t
+
+
+def default_dt(system: VibroImpactSystem) -> float:
+    """A twentieth of the small-oscillation period at the barrier: 2π/(20 ω0)."""
+    X = system.delta if system.has_barrier else 1.0
+    return 2.0 * math.pi / (20.0 * math.sqrt(abs(system.a) + abs(system.b) * X * X + 1e-12))
+
+
+def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
+              dt: float | None = None, scheme: str = "bdf2", nx: int | None = None,
+              ny: int | None = None, degree: int = 1, mesh=None, y_max: float | None = None,
+              theta: float = 0.5, progress: bool | None = None,
+              discretisation: Discretisation | None = None) -> list[FEMSolution]:
+    """Densities at ``times`` from ``initial`` (DESIGN §3 transient).
+
+    Parameters
+    ----------
+    system : VibroImpactSystem
+    initial : dict, callable or Solution
+        ``{"mean": (x0, y0), "std": (sx, sy)}`` (the spec shared with the Monte Carlo
+        and averaged transients; a zero std is widened to one cell), a callable
+        p0(x, y), or a previous solution (e.g. a FEMSolution).  Interpolated at the
+        nodes and renormalised to ∫p = 1.
+    times : sequence of float
+        Strictly increasing output times ≥ 0.
+    dt : float, optional
+        Largest time step (default :func:`default_dt`); each interval between
+        output times is split into equal steps so every time is hit exactly.
+    scheme : {"bdf2", "theta"}
+    nx, ny, degree, mesh, y_max
+        As in :func:`fpk_vibro.fem.stationary`.
+    theta : float
+        θ of the θ-scheme, in [1/2, 1].
+    progress : bool, optional
+        A progress line on stderr (default: when stderr is a terminal and the run
+        has more than 2000 steps).
+    discretisation : Discretisation, optional
+        Reuse an assembled mesh and operator (then nx, ny, ... are ignored).
+
+    Returns
+    -------
+    list of FEMSolution
+        One per time, each with ``.time``, ``.mass`` and ``.min_density``; if
+        interrupted (Ctrl-C) the finished ones, each with ``partial=True`` in
+        ``info``.
+    """
+    t_out = _check_times(times)
+    if scheme not in SCHEMES:
+        raise ValueError(f"fem.transient: scheme must be one of {SCHEMES}; got {scheme!r}")
+    if isinstance(theta, bool) or not isinstance(theta, (int, float)) or not 0.5 <= theta <= 1:
+        raise ValueError(f"fem.transient: theta must be in [0.5, 1]; got {theta!r}")
+    if dt is None:
+        dt = default_dt(system)
+    elif isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"fem.transient: dt must be a finite number > 0; got {dt!r}")
+    disc = discretisation or discretise(system, mesh=mesh, nx=nx, ny=ny, y_max=y_max,
+                                        degree=degree)
+    p = _initial_vector(disc, initial)
+    M, L = disc.M.tocsc(), disc.L.tocsc()
+    lu_cache: dict[tuple[float, float], Any] = {}
+
+    def solve(a0: float, h: float, rhs: np.ndarray) -> np.ndarray:
+        key = (round(a0, 14), round(h, 14))
+        if key not in lu_cache:
+            lu_cache[key] = spla.splu((a0 * M - h * L).tocsc(), permc_spec="COLAMD")
+        return lu_cache[key].solve(rhs)
+
+    n_total = int(sum(math.ceil((b - a) / dt - 1e-9) for a, b in zip(np.r_[0.0, t_out[:-1]], t_out)))
+    show = progress if progress is not None else (sys.stderr.isatty() and n_total > 2000)
+    out: list[FEMSolution] = []
+    t_now, p_prev, h_prev, steps, t0 = 0.0, None, None, 0, time.perf_counter()
+    try:
+        for t_target in t_out:
+            span = t_target - t_now
+            n = int(math.ceil(span / dt - 1e-9)) if span > 0 else 0
+            h = span / n if n else 0.0
+            for _ in range(n):
+                if scheme == "theta":
+                    p_new = solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
+                elif p_prev is None:
+                    p_new = solve(1.0, h, M @ p)
+                else:
+                    w = h / h_prev
+                    p_new = solve((1 + 2 * w) / (1 + w), h,
+                                  M @ ((1 + w) * p - (w * w / (1 + w)) * p_prev))
+                p_prev, p, h_prev = p, p_new, h
+                steps += 1
+                if show and steps % 200 == 0:
+                    print(f"\rfem.transient: step {steps}/{n_total}  t = {t_now + h:.4g}",
+                          end="", file=sys.stderr)
+            t_now = float(t_target)
+            sol = disc.solution(p.copy(), time=t_now, steps=steps, scheme=scheme, dt=h or dt)
+            sol.time = t_now
+            out.append(sol)
+    except KeyboardInterrupt:
+        for s in out:
+            s.info["partial"] = True
+        print(f"\nfem.transient: interrupted at t = {t_now:g}; returning {len(out)} "
+              "finished time(s)", file=sys.stderr)
+    finally:
+        if show:
+            print(f"\rfem.transient: {steps} steps in {time.perf_counter() - t0:.1f} s",
+                  file=sys.stderr)
+    return out
+
+
+def relaxation_time(system: VibroImpactSystem, *, tol: float = 1e-3,
+                    discretisation: Discretisation | None = None, **mesh_kw: Any
+                    ) -> dict[str, float]:
+    """Slowest decay rate of the FE operator and the time to relax to ``tol`` in L1.
+
+    The generalised eigenproblem L v = λ M v has λ0 = 0 (the stationary density)
+    and Re λ < 0 otherwise; the slowest rate is λ1 = min |Re λ| over the rest
+    (``scipy.sparse.linalg.eigs`` in shift-invert mode near 0).  A perturbation of
+    L1 size ε0 ~ 1 decays below ``tol`` after about ln(1/tol)/λ1.
+
+    Returns
+    -------
+    dict with ``rate`` (λ1), ``time`` (ln(1/tol)/λ1) and ``eigenvalues`` (the few
+    computed, sorted by |Re|).
+    """
+    if not (isinstance(tol, float) and 0 < tol < 1):
+        raise ValueError(f"relaxation_time: tol must be a float in (0, 1); got {tol!r}")
+    disc = discretisation or discretise(system, **mesh_kw)
+    sigma = -1e-6
+    vals = spla.eigs(disc.L.tocsc(), k=6, M=disc.M.tocsc(), sigma=sigma,
+                     return_eigenvectors=False)
+    vals = vals[np.argsort(np.abs(vals.real))]
+    rest = vals[np.abs(vals) > 1e-8 * max(1.0, np.abs(vals).max())]
+    rate = float(np.min(np.abs(rest.real)))
+    return {"rate": rate, "time": math.log(1.0 / tol) / rate,
+            "eigenvalues": [complex(v) for v in vals]}
