@@ -5,6 +5,7 @@ Commands
 run SCENE   run a scene (TOML): results.json, densities.npz, figures
 check SCENE validate a scene without running it
 show DIR    print the summary table of a results directory
+study KIND  ``convergence`` (error vs wall time) or ``averaging`` (where it holds)
 paper       the paper's case end to end (Fig. 3 analogue): p(H) for r = 0.98, 0.92
 bench NAME  benchmarks: ``averaging``, ``montecarlo``, ``fem``
 """
@@ -115,6 +116,24 @@ def _print_summary(doc: dict) -> None:
                   " ".join(f"{c:>18s}" for c in cells))
 
 
+def cmd_study(args: argparse.Namespace) -> int:
+    from . import studies
+    from .scenes import load_scene
+
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else scene.output_dir / f"study_{args.kind}"
+    print(f"fpk-vibro: {args.kind} study of {scene.name!r}{' (quick)' if args.quick else ''}")
+    if args.kind == "convergence":
+        doc = studies.convergence_study(scene, quick=args.quick)
+    else:
+        doc = studies.averaging_study(scene, quick=args.quick)
+    files = studies.write_study(args.kind, doc, out)
+    if args.kind == "convergence":
+        print(studies.markdown_table(doc))
+    print("  wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     module = importlib.import_module(_BENCHMARKS[args.name])
     return int(module.main(args.rest) or 0)
@@ -140,6 +159,12 @@ def build_parser() -> argparse.ArgumentParser:
     ps = sub.add_parser("show", help="summary table of a results directory")
     ps.add_argument("dir")
     ps.set_defaults(func=cmd_show)
+    pt = sub.add_parser("study", help="convergence (work-precision) or averaging-validity study")
+    pt.add_argument("kind", choices=["convergence", "averaging"])
+    pt.add_argument("scene")
+    pt.add_argument("--out", default=None, help="output directory")
+    pt.add_argument("--quick", action="store_true", help="reduced size (about a minute)")
+    pt.set_defaults(func=cmd_study)
     pp = sub.add_parser("paper", help="the paper's case end to end (Fig. 3 analogue)")
     pp.add_argument("--out", default="results", help="output directory (default: results)")
     pp.set_defaults(func=cmd_paper)

@@ -150,3 +150,63 @@ def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") ->
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def work_precision(doc: dict, path) -> Path:
+    """Error against wall time, log-log, one line per method/setting family."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
+    groups: dict[str, list] = {}
+    for r in doc["rows"]:
+        label = r["method"] if r["method"] != "fem" else f"FE Q{r['degree']}"
+        groups.setdefault(label, []).append(r)
+    for i, (label, rows) in enumerate(groups.items()):
+        rows = sorted(rows, key=lambda r: r["seconds"])
+        ax.loglog([r["seconds"] for r in rows], [max(r["error"], 1e-16) for r in rows],
+                  marker="os^dv"[i % 5], label=label)
+    est = doc["truth"].get("error_estimate", 0.0)
+    if est:
+        ax.axhline(est, color="0.5", ls=":", lw=1, label="truth's error estimate")
+    for tgt in (1e-2, 1e-3, 1e-4):
+        ax.axhline(tgt, color="0.85", lw=0.8, zorder=0)
+    ax.set_xlabel("wall time (s)")
+    ax.set_ylabel("max relative error of E[H], E[x²], E[y²]")
+    ax.set_title(f"work–precision (truth: {doc['truth']['source']})", fontsize=9)
+    ax.legend(frameon=False, fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def averaging_map(doc: dict, path) -> Path:
+    """Heat maps of the averaging error over (r, c): L1 of p(H) and E[H]."""
+    plt = _pyplot()
+    rs, cs = doc["r"], doc["c"]
+    grid = {k: np.full((len(cs), len(rs)), np.nan) for k in ("L1_pH", "rel_E_H")}
+    for cell in doc["cells"]:
+        if "error" in cell:
+            continue
+        i, j = cs.index(cell["c"]), rs.index(cell["r"])
+        grid["L1_pH"][i, j] = cell["L1_pH"]
+        grid["rel_E_H"][i, j] = 100 * abs(cell["rel_E_H"])
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), dpi=110)
+    for ax, (key, title) in zip(axes, (("L1_pH", "L1 distance of p(H), averaging vs FE"),
+                                       ("rel_E_H", "|E[H] error| of averaging (%)"))):
+        im = ax.imshow(grid[key], origin="lower", aspect="auto", cmap="magma_r")
+        ax.set_xticks(range(len(rs)), [f"{r:g}" for r in rs])
+        ax.set_yticks(range(len(cs)), [f"{c:g}" for c in cs])
+        ax.set_xlabel("restitution r")
+        ax.set_ylabel("damping c")
+        ax.set_title(title, fontsize=9)
+        for (i, j), v in np.ndenumerate(grid[key]):
+            if np.isfinite(v):
+                ax.text(j, i, f"{v:.2g}", ha="center", va="center", fontsize=7,
+                        color="w" if v > np.nanmax(grid[key]) / 2 else "k")
+        fig.colorbar(im, ax=ax)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

@@ -141,13 +141,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "fem": {
         "nx": Key(_num(2, 100_000, integer=True), None, doc="elements in x (default: by accuracy rule)"),
         "ny": Key(_num(2, 100_000, integer=True), None, doc="elements in y"),
-        "y_max": Key(_num(0.0, lo_open=True), None, doc="velocity truncation |y| < y_max (m/s)"),
+        "y_max": Key(_num(0.0, lo_open=True), None, doc="velocity truncation: y in (−y_max, y_max) (m/s); default: Gibbs-tail rule"),
         "degree": Key(_num(1, 2, integer=True), 1, doc="1 (Q1) or 2 (Q2)"),
         "solver": Key(_choice(("auto", "direct", "amg")), "auto", doc="linear solver"),
-        "positivity": Key(_bool, None, doc="positivity-preserving discretisation (default: solver's)"),
+        "positivity": Key(_bool, None, doc="positivity-preserving discretisation, degree 1 (default false: Galerkin)"),
         "mesh": Key(_string, None, doc="a mesh file of the strip (meshio format), relative to the scene"),
         "dt": Key(_num(0.0, lo_open=True), None, doc="time step (s), transient"),
         "scheme": Key(_choice(("bdf2", "theta")), "bdf2", doc="time scheme, transient"),
+        "theta": Key(_num(0.5, 1.0), 0.5, doc="θ of the θ-scheme (1/2 Crank–Nicolson, 1 implicit Euler)"),
     },
     "montecarlo": {
         "n_paths": Key(_num(1, 10**9, integer=True), None, doc="paths (default: method's)"),

@@ -1,0 +1,158 @@
+"""Studies: what accuracy costs in time, and where the averaging assumptions hold.
+
+``fpk-vibro study convergence SCENE`` — error against the best available truth
+versus wall time for every method setting (work–precision).  Truth: the exact Gibbs
+density where it exists (r = 1 or no barrier, D2 = 0), else the finest FE solution
+(Q2) with its error estimated from the two finest levels, cross-checked with Monte
+Carlo.  The error measure is the largest relative error of E[H], E[x²], E[y²].
+
+``fpk-vibro study averaging SCENE`` — the averaging error (L1 distance of p(H) and
+relative errors of the moments, FE as truth) over a grid of r and c.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .model import VibroImpactSystem
+from .runner import atomic_write_text
+from .scenes import Scene
+
+__all__ = ["convergence_study", "averaging_study", "cost_of_accuracy"]
+
+KEYS = ("E_H", "E_x2", "E_y2")
+
+
+def _err(m: dict[str, float], truth: dict[str, float]) -> float:
+    return max(abs(m[k] / truth[k] - 1) for k in KEYS)
+
+
+def _timed(f: Callable[[], Any]) -> tuple[Any, float]:
+    t0 = time.perf_counter()
+    out = f()
+    return out, time.perf_counter() - t0
+
+
+def _truth(system: VibroImpactSystem, quick: bool, log) -> dict[str, Any]:
+    from . import exact, fem
+    try:
+        m = exact.gibbs(system).moments()
+        return {"source": "exact Gibbs", "moments": m, "error_estimate": 0.0}
+    except ValueError:
+        pass
+    levels = (24, 48) if quick else (64, 128)
+    sols = [fem.stationary(system, degree=2, nx=n).moments() for n in levels]
+    est = _err(sols[0], sols[1]) / 3.0            # order 2: e_fine ≈ |fine − coarse|/3
+    log(f"  truth: FE Q2 nx={levels[1]} (error estimate {est:.1e})")
+    return {"source": f"FE Q2 nx={levels[1]}", "moments": sols[1], "error_estimate": est}
+
+
+def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str, Any]:
+    """Work–precision table of every method of the scene's (first) system."""
+    from . import averaging, fem, montecarlo
+    system = scene.points()[0][1]
+    truth = _truth(system, quick, log)
+    T = truth["moments"]
+    rows: list[dict[str, Any]] = []
+
+    def add(method: str, setting: str, moments: dict[str, float], seconds: float, **extra):
+        rows.append({"method": method, "setting": setting, "error": _err(moments, T),
+                     "seconds": seconds, **extra})
+        log(f"  {method:<11s} {setting:<26s} error {rows[-1]['error']:.2e}  {seconds:7.2f} s")
+
+    methods = [m for m in scene.methods if m != "exact"]
+    if "fem" in methods:
+        fem.stationary(system, nx=8)          # warm-up: imports and caches are not the cost
+        for degree, levels in ((1, (16, 32, 64) if quick else (16, 32, 64, 128, 256)),
+                               (2, (8, 16) if quick else (8, 16, 32, 64))):
+            for nx in levels:
+                sol, dt = _timed(lambda: fem.stationary(system, degree=degree, nx=nx))
+                add("fem", f"Q{degree} nx={nx} ({sol.dofs.size} dofs)", sol.moments(), dt,
+                    degree=degree, nx=nx)
+    if "montecarlo" in methods:
+        montecarlo.stationary(system, n_paths=64, t_sample=10.0, seed=0, progress=False)
+        for rse in ((1e-2, 3e-3) if quick else (1e-2, 3e-3, 1e-3)):
+            sol, dt = _timed(lambda: montecarlo.stationary(
+                system, seed=1, target_rse=rse, quantities=("energy",), progress=False))
+            add("montecarlo", f"target SE {rse:g} (dt={sol.dt:.3g})", sol.moments(), dt,
+                se=_err({k: sol.moments()[k] + sol.moments_se()[k] for k in KEYS}, sol.moments()))
+    if "averaging" in methods:
+        ref = averaging.stationary(system, n_theta=96, n_panel=48).moments()
+        for nt, npan in ((6, 4), (8, 6), (12, 8), (24, 16), (48, 24)):
+            sol, dt = _timed(lambda: averaging.stationary(system, n_theta=nt, n_panel=npan))
+            add("averaging", f"n_theta={nt} n_panel={npan}", sol.moments(), dt)
+            # its own convergence: against the finest quadrature, not the truth
+            rows.append({"method": "averaging (quadrature)", "setting": rows[-1]["setting"],
+                         "error": _err(sol.moments(), ref), "seconds": dt})
+    return {"system": system.to_dict(), "truth": truth, "rows": rows,
+            "cost": cost_of_accuracy(rows)}
+
+
+def cost_of_accuracy(rows: list[dict[str, Any]], targets=(1e-2, 1e-3, 1e-4)) -> dict[str, Any]:
+    """Fastest setting of each method reaching each relative-error target (None: not reached)."""
+    out: dict[str, Any] = {}
+    for method in sorted({r["method"] for r in rows}):
+        mine = [r for r in rows if r["method"] == method]
+        out[method] = {}
+        for tgt in targets:
+            ok = [r for r in mine if r["error"] <= tgt]
+            best = min(ok, key=lambda r: r["seconds"]) if ok else None
+            out[method][f"{tgt:g}"] = None if best is None else {
+                "seconds": best["seconds"], "setting": best["setting"]}
+    return out
+
+
+def averaging_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str, Any]:
+    """Averaging error against FE over a grid of r and c (the scene's other parameters)."""
+    from . import averaging, fem
+    base = scene.points()[0][1]
+    rs = (1.0, 0.8, 0.5, 0.2) if quick else (1.0, 0.98, 0.92, 0.8, 0.6, 0.4, 0.2, 0.05)
+    cs = (0.025, 0.1) if quick else (0.01, 0.025, 0.05, 0.1, 0.2)
+    nx = 32 if quick else 64
+    cells = []
+    for c in cs:
+        for r in rs:
+            s = base.replace(r=r, c=c, D2=base.D2)
+            try:
+                a = averaging.stationary(s)
+            except ValueError as exc:
+                cells.append({"r": r, "c": c, "error": str(exc)})
+                continue
+            f = fem.stationary(s, degree=2, nx=nx)
+            ma, mf = a.moments(), f.moments()
+            H = np.linspace(0.0, 12 * mf["E_H"], 2401)
+            l1 = float(np.trapezoid(np.abs(a.pdf_energy(H) - f.pdf_energy(H)), H))
+            cell = {"r": r, "c": c, "L1_pH": l1, **{f"rel_{k}": ma[k] / mf[k] - 1 for k in KEYS}}
+            cells.append(cell)
+            log(f"  c={c:<6g} r={r:<5g} L1 p(H) {l1:.3f}  E[H] {cell['rel_E_H']:+.3%}")
+    return {"system": base.to_dict(), "r": list(rs), "c": list(cs), "cells": cells}
+
+
+def write_study(kind: str, doc: dict[str, Any], out: Path) -> list[Path]:
+    """results JSON and the plot of a study; returns the files written."""
+    from . import plotting
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / f"{kind}.json", json.dumps(doc, indent=1, default=float))
+    if kind == "convergence":
+        return [out / f"{kind}.json", plotting.work_precision(doc, out / "work_precision.png")]
+    return [out / f"{kind}.json", plotting.averaging_map(doc, out / "averaging_error.png")]
+
+
+def markdown_table(doc: dict[str, Any]) -> str:
+    """The convergence table and the cost of 1 % / 0.1 % / 0.01 % as Markdown."""
+    lines = [f"Truth: {doc['truth']['source']}.", "",
+             "| method | setting | max rel. error (E[H], E[x²], E[y²]) | seconds |",
+             "|---|---|---|---|"]
+    for r in doc["rows"]:
+        lines.append(f"| {r['method']} | {r['setting']} | {r['error']:.2e} | {r['seconds']:.3f} |")
+    lines += ["", "| method | 1 % | 0.1 % | 0.01 % |", "|---|---|---|---|"]
+    for method, costs in doc["cost"].items():
+        cells = [("—" if v is None else f"{v['seconds']:.3g} s ({v['setting']})")
+                 for v in costs.values()]
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+

@@ -1,0 +1,48 @@
+"""The study commands at their quick size: tables, plots and the facts they must show."""
+import json
+from pathlib import Path
+
+import pytest
+
+from fpk_vibro import cli
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
+
+
+@pytest.fixture(scope="module")
+def convergence(tmp_path_factory):
+    out = tmp_path_factory.mktemp("conv")
+    assert cli.main(["study", "convergence", str(EXAMPLES / "fig5_joint_r092.toml"),
+                     "--quick", "--out", str(out)]) == 0
+    return json.loads((out / "convergence.json").read_text()), out
+
+
+def test_convergence_table(convergence):
+    doc, out = convergence
+    assert (out / "work_precision.png").stat().st_size > 10_000
+    rows = doc["rows"]
+    q1 = [r["error"] for r in rows if r["method"] == "fem" and r["degree"] == 1]
+    assert all(a > 3 * b for a, b in zip(q1, q1[1:]))                 # order ~2
+    q2 = [r for r in rows if r["method"] == "fem" and r["degree"] == 2]
+    assert q2[0]["error"] < q1[0]                               # Q2 beats Q1 at equal DOFs
+    for r in rows:
+        if r["method"] == "montecarlo":
+            assert r["error"] < 4 * r["se"] + doc["truth"]["error_estimate"] + 1e-4
+    avg = [r["error"] for r in rows if r["method"] == "averaging"]
+    assert 0.02 < avg[-1] < 0.06                                          # model error, r = 0.92
+    quad = [r["error"] for r in rows if r["method"] == "averaging (quadrature)"]
+    assert quad[-1] < 1e-12 < quad[0]
+    assert doc["cost"]["fem"]["0.001"] is not None
+
+
+def test_averaging_study(tmp_path):
+    assert cli.main(["study", "averaging", str(EXAMPLES / "fig5_joint_r092.toml"),
+                     "--quick", "--out", str(tmp_path)]) == 0
+    doc = json.loads((tmp_path / "averaging.json").read_text())
+    assert (tmp_path / "averaging_error.png").exists()
+    cells = {(c["r"], c["c"]): c for c in doc["cells"]}
+    # elastic impacts: only the parametric noise breaks exactness — tiny error
+    assert abs(cells[(1.0, 0.025)]["rel_E_H"]) < 1e-3
+    # the error grows as r falls (1 − r⁴ no longer small)
+    e = [abs(cells[(r, 0.025)]["rel_E_H"]) for r in doc["r"]]
+    assert all(a < b for a, b in zip(e, e[1:]))
