@@ -210,3 +210,41 @@ def averaging_map(doc: dict, path) -> Path:
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str = "") -> Path:
+    """One figure with a density of every sweep point and method (the paper's Fig. 3 style).
+
+    ``arrays``: the merged densities.npz content; ``points``: the results.json points.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=110)
+    for i, point in enumerate(points):
+        if "error" in point:
+            continue
+        label = ", ".join(f"{k} = {v:g}" for k, v in point["parameters"].items())
+        color = f"C{i % 10}"
+        for method in point["methods"]:
+            key = f"p{point['index']}.{method}.{quantity}"
+            if f"{key}.grid" not in arrays:
+                continue
+            if method == "montecarlo":
+                e, h, se = arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"]
+                mid = 0.5 * (e[1:] + e[:-1])
+                keep = mid <= arrays[f"{key}.grid"][-1]
+                ax.errorbar(mid[keep], h[keep], yerr=se[keep], fmt="o", ms=3, mfc="none",
+                            color=color, capsize=1.5, lw=0.7, label=f"Monte Carlo, {label}")
+            else:
+                ax.plot(arrays[f"{key}.grid"], arrays[f"{key}.pdf"], color=color,
+                        ls={"fem": "--", "exact": ":"}.get(method, "-"), lw=1.4,
+                        label=f"{method}, {label}")
+    xl, yl = _LABELS[quantity]
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl)
+    ax.set_title(title, fontsize=9)
+    ax.legend(frameon=False, fontsize=7)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

@@ -225,6 +225,12 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
                     merged.update({k: data[k] for k in data.files})
         if merged:
             _atomic_savez(out_dir / "densities.npz", merged)
+            if scene.sweep and "png" in scene.formats:
+                from . import plotting
+                doc["figures"] = [plotting.sweep_overlay(
+                    merged, records, q, out_dir / f"sweep_{q}.png", title=scene.name).name
+                    for q in ("energy", "x", "y") if q in scene.quantities]
+                atomic_write_text(out_dir / "results.json", json.dumps(doc, indent=1))
     return doc
 
 
