@@ -187,10 +187,14 @@ def test_seed_reproducible_across_thread_counts():
         b = mc.stationary(s, n_paths=256, t_burn=20.0, t_sample=40.0, seed=42, n_batches=8)
     finally:
         numba.set_num_threads(old)
+    # the explicit threads= argument (thread pool over blocks), more workers than cores
+    d = mc.stationary(s, n_paths=256, t_burn=20.0, t_sample=40.0, seed=42, n_batches=8,
+                      threads=3)
     ma, mb = a._state(), b._state()
     assert ma[0] == mb[0]
-    for k in ma[1]:
-        assert np.array_equal(ma[1][k], mb[1][k]), k
+    for other in (mb, d._state()):
+        for k in ma[1]:
+            assert np.array_equal(ma[1][k], other[1][k]), k
     c = mc.stationary(s, n_paths=256, t_burn=20.0, t_sample=40.0, seed=43, n_batches=8)
     assert c.moments()["E_H"] != a.moments()["E_H"]
 
@@ -287,6 +291,7 @@ def test_transient_start_and_relaxation():
     (dict(n_batches=1), "n_batches"),
     (dict(target_rse=0.0), "target_rse"),
     (dict(max_impacts=0), "max_impacts"),
+    (dict(threads=0), "threads must be an integer >= 1"),
 ])
 def test_bad_inputs_raise_before_work(kwargs, match, monkeypatch):
     from fpk_vibro.montecarlo import _kernel

@@ -80,7 +80,7 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
                 hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
-                frac=None):
+                frac=None, threads=None):
     """Advance in chunks of ~CHUNK_PATH_STEPS path-steps; returns steps done.
 
     ``stop()`` (checked after every chunk) ends the loop early when True;
@@ -93,7 +93,7 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
     while done < n_steps:
         n = min(chunk, n_steps - done)
         K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
-                  xext, hist.hH, hist.hx, hist.hy, hist.hj)
+                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -109,7 +109,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                quantities: Sequence[str] = QUANTITIES, bins: int | dict = 100,
                n_batches: int = 32, target_rse: float = 0.005,
                max_t_sample: float | None = None, sample_every: int | None = None,
-               max_impacts: int = 64, progress: bool | None = None) -> MonteCarloSolution:
+               max_impacts: int = 64, progress: bool | None = None,
+               threads: int | None = None) -> MonteCarloSolution:
     """Stationary densities and moments by time-and-ensemble averages (DESIGN §4).
 
     Parameters
@@ -152,6 +153,9 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     progress : bool or None
         Progress line on stderr; None: only when stderr is a terminal (shown after
         2 s).
+    threads : int, optional
+        Worker threads over the batches; default :func:`numba.get_num_threads`
+        (all cores unless set otherwise).  The result does not depend on it.
 
     Returns
     -------
@@ -184,6 +188,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     sample_every = S.default_sample_every(system, dt) if sample_every is None else \
         S.check_int(F, "sample_every", sample_every, 1)
     max_impacts = S.check_int(F, "max_impacts", max_impacts, 1, 10**6)
+    threads = None if threads is None else S.check_int(F, "threads", threads, 1)
     t_min = sample_every * dt
     for name, val in (("t_sample", t_sample), ("max_t_sample", max_t_sample)):
         if val is not None and val < t_min * (1 - 1e-9):
@@ -205,7 +210,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     n_burn = math.ceil(t_burn / dt - 1e-9)
     try:
         _run_chunks(xs, ys, rng, starts, n_burn, 0, 0, p, ip, mom, imp, xext, none,
-                    n_paths, prog, "burn-in", (0.0, 0.1))
+                    n_paths, prog, "burn-in", (0.0, 0.1), threads=threads)
     except KeyboardInterrupt:
         prog.close("(interrupted during burn-in: nothing sampled)")
         raise
@@ -240,7 +245,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     try:
         _run_chunks(xs, ys, rng, starts, n_samp, 0, sample_every, p, ip, mom, imp, xext,
                     hist, n_paths, prog, "sampling", (0.1, 1.0), stop=reached,
-                    frac=fraction)
+                    frac=fraction, threads=threads)
     except KeyboardInterrupt:
         partial = True
         print("\n[montecarlo] interrupted: returning the samples taken so far "
@@ -262,7 +267,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               seed: int | np.random.SeedSequence | None = None,
               quantities: Sequence[str] = QUANTITIES, bins: int | dict = 60,
               n_batches: int = 32, max_impacts: int = 64,
-              progress: bool | None = None) -> TransientRun:
+              progress: bool | None = None, threads: int | None = None) -> TransientRun:
     """Ensemble densities at given times from an initial density (DESIGN §4).
 
     Parameters
@@ -278,7 +283,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     n_paths : int, default 4096
     dt : float, optional
         Largest time step; default as in :func:`stationary`.
-    seed, quantities, n_batches, max_impacts, progress
+    seed, quantities, n_batches, max_impacts, progress, threads
         As in :func:`stationary`.
     bins : int or dict, default 60
         As in :func:`stationary`; default ranges follow the ensemble at each time
@@ -309,6 +314,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     quantities = S.check_quantities(F, quantities)
     bins = S.check_bins(F, bins)
     max_impacts = S.check_int(F, "max_impacts", max_impacts, 1, 10**6)
+    threads = None if threads is None else S.check_int(F, "threads", threads, 1)
     init = parse_initial(initial, system)
 
     children = ss.spawn(n_batches + 1)
@@ -333,7 +339,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             xext = np.tile([np.inf, -np.inf], (n_batches, 1))
             frac = (t_now / tarr[-1], t / tarr[-1]) if tarr[-1] > 0 else (0.0, 1.0)
             _run_chunks(xs, ys, rng, starts, n, 0, 0, p, ip, mom, imp, xext, none,
-                        n_paths, prog, f"t={t:g}", frac)
+                        n_paths, prog, f"t={t:g}", frac, threads=threads)
             t_now = float(t)
             H = system.energy(xs, ys)
             H_max = float(H.max())

@@ -2,8 +2,12 @@
 
 Random numbers (:mod:`._rng`): one xoshiro256+ stream per block of paths
 (seeded from ``numpy.random.SeedSequence.spawn``), standard normals by the
-ziggurat method.  A block's paths are simulated one after another by one
-thread, so the results do not depend on the number of threads.
+ziggurat method.  A block is simulated by one thread, in a fixed order, by
+the same compiled code whatever the number of threads, so the results do not
+depend on it.  The blocks are shared out to a ``concurrent.futures`` thread
+pool (:func:`run_blocks`; :func:`_run_block` is compiled ``nogil``) rather
+than a numba ``prange``: a ``parallel=True`` wrapper made numba re-optimise
+the whole block function inside the parfor (~7 s of a cold-cache compile).
 
 The step (BAOAB splitting, see :mod:`fpk_vibro.montecarlo` for the argument)::
 
@@ -19,10 +23,14 @@ the ``P_*`` / ``I_*`` indices below.
 from __future__ import annotations
 
 import math
+import threading
+from concurrent.futures import ThreadPoolExecutor, wait
 
-from numba import njit, prange
+import numba
+import numpy as np
+from numba import njit
 
-from ._rng import FASTMATH, _normal, normals_floor  # noqa: F401  (normals_floor re-exported)
+from ._rng import FASTMATH, _floor_block, _normal
 
 # float parameters
 P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD = range(11)
@@ -75,7 +83,7 @@ def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, r, mode, maxk):
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _flight(x, y, tau, off0, lo, hi, flo, fhi, r, mode, maxk):
+def _flight(x, y, tau, off0, lo, hi, flo, fhi, r, mode, maxk, lo_t, hi_t):
     """Free flight x += tau*y with impacts located exactly at x = lo / hi.
 
     ``y`` is the splitting's stored velocity, which already holds the whole
@@ -92,9 +100,9 @@ def _flight(x, y, tau, off0, lo, hi, flo, fhi, r, mode, maxk):
     if the bound is reached the path stays on the barrier it hit last.
     """
     xn = x + tau * y
-    if mode == MODE_NONE:
-        return xn, y, 0
-    if xn <= hi and (mode == MODE_RIGHT or xn >= lo):
+    # one test: lo_t = lo only with a left barrier, hi_t = hi only with a right
+    # one (else ∓inf); a NaN goes to _impacts, which returns it unchanged
+    if (xn >= lo_t) & (xn <= hi_t):
         return xn, y, 0
     return _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, r, mode, maxk)
 
@@ -157,25 +165,24 @@ def _accumulate(x, y, p, mom, b, hH, hx, hy, hj):
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
 def _step(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, r, mode,
-          has_d2, maxk):
+          has_d2, maxk, lo_t, hi_t):
     """One BAOAB step (module docstring); f = F(x) on entry and on return."""
     y += hh * f
-    x, y, m1 = _flight(x, y, hh, -hh, lo, hi, flo, fhi, r, mode, maxk)
+    x, y, m1 = _flight(x, y, hh, -hh, lo, hi, flo, fhi, r, mode, maxk, lo_t, hi_t)
     if has_d2:
         y = ec * y + math.sqrt(d1s2 + d2s2 * x * x) * z
     else:
         y = ec * y + sd0 * z
-    x, y, m2 = _flight(x, y, hh, 0.0, lo, hi, flo, fhi, r, mode, maxk)
+    x, y, m2 = _flight(x, y, hh, 0.0, lo, hi, flo, fhi, r, mode, maxk, lo_t, hi_t)
     f = -(a + bcub * x * x) * x
     return x, y + hh * f, f, m1 + m2
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                mom, imp, xext, hH, hx, hy, hj):
-    """Block b of :func:`advance` (a plain compiled function: the parallel loop
-    only dispatches blocks, which keeps numba's parfor passes and compile time
-    small)."""
+    """Block b of :func:`advance` (compiled without the GIL; :func:`advance`
+    runs the blocks on a thread pool)."""
     a = p[P_A]
     bcub = p[P_B]
     hh = p[P_HH]
@@ -191,6 +198,8 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     mode = ip[I_MODE]
     has_d2 = ip[I_D2] != 0
     maxk = ip[I_MAXK]
+    lo_t = lo if mode == MODE_BOTH else -math.inf
+    hi_t = hi if mode != MODE_NONE else math.inf
     s0 = rng[b, 0]
     s1 = rng[b, 1]
     s2 = rng[b, 2]
@@ -226,16 +235,16 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         for k in range(n_steps):
             z, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
             x0, y0, f0, m0 = _step(x0, y0, f0, z, hh, ec, sd0, d1s2, d2s2, a, bcub,
-                                   lo, hi, flo, fhi, r, mode, has_d2, maxk)
+                                   lo, hi, flo, fhi, r, mode, has_d2, maxk, lo_t, hi_t)
             z, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
             x1, y1, f1, m1 = _step(x1, y1, f1, z, hh, ec, sd0, d1s2, d2s2, a, bcub,
-                                   lo, hi, flo, fhi, r, mode, has_d2, maxk)
+                                   lo, hi, flo, fhi, r, mode, has_d2, maxk, lo_t, hi_t)
             z, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
             x2, y2, f2, m2 = _step(x2, y2, f2, z, hh, ec, sd0, d1s2, d2s2, a, bcub,
-                                   lo, hi, flo, fhi, r, mode, has_d2, maxk)
+                                   lo, hi, flo, fhi, r, mode, has_d2, maxk, lo_t, hi_t)
             z, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
             x3, y3, f3, m3 = _step(x3, y3, f3, z, hh, ec, sd0, d1s2, d2s2, a, bcub,
-                                   lo, hi, flo, fhi, r, mode, has_d2, maxk)
+                                   lo, hi, flo, fhi, r, mode, has_d2, maxk, lo_t, hi_t)
             nimp += m0
             if nl == 4:
                 nimp += m1 + m2 + m3
@@ -291,14 +300,55 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     rng[b, 3] = s3
 
 
-@njit(parallel=True, cache=True, fastmath=FASTMATH)
+_POOL: dict[int, ThreadPoolExecutor] = {}
+_POOL_LOCK = threading.Lock()
+
+
+def _pool(n: int) -> ThreadPoolExecutor:
+    with _POOL_LOCK:
+        pool = _POOL.get(n)
+        if pool is None:
+            pool = _POOL[n] = ThreadPoolExecutor(max_workers=n,
+                                                 thread_name_prefix="fpk-mc")
+        return pool
+
+
+def n_threads(threads: int | None = None) -> int:
+    """The worker count: ``threads`` or :func:`numba.get_num_threads`."""
+    return max(1, int(numba.get_num_threads() if threads is None else threads))
+
+
+def run_blocks(fn, n_blocks: int, args: tuple, threads: int | None = None) -> list:
+    """``[fn(b, *args) for b in range(n_blocks)]`` with the blocks shared out to
+    ``threads`` workers (``fn`` compiled ``nogil``; blocks write disjoint data).
+
+    Each block is computed by the same compiled code from its own random stream
+    whatever the number of threads, so results are bit-identical.  Blocks are
+    handed out one at a time (dynamic load balance).  On Ctrl-C no further block
+    starts and the running ones are finished before the interrupt propagates, so
+    every block's state stays consistent.
+    """
+    nt = min(n_threads(threads), n_blocks)
+    if nt <= 1:
+        return [fn(b, *args) for b in range(n_blocks)]
+    futs = [_pool(nt).submit(fn, b, *args) for b in range(n_blocks)]
+    try:
+        return [f.result() for f in futs]
+    except BaseException:
+        for f in futs:
+            f.cancel()
+        wait(futs)
+        raise
+
+
 def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-            mom, imp, xext, hH, hx, hy, hj):
+            mom, imp, xext, hH, hx, hy, hj, threads=None):
     """Advance every path by ``n_steps`` steps (in place), sampling if asked.
 
-    Paths are advanced four at a time, held in registers (independent dependency
-    chains that the CPU overlaps); the random numbers of a block are drawn in the
-    order step, then lane, from the block's own stream.
+    Blocks run on ``threads`` workers (:func:`run_blocks`).  Within a block,
+    paths are advanced four at a time, held in registers (independent
+    dependency chains that the CPU overlaps); the random numbers of a block are
+    drawn in the order step, then lane, from the block's own stream.
 
     Parameters
     ----------
@@ -320,17 +370,21 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         Per-block min and max of x over the samples taken.
     hH, hx, hy, hj : float64 arrays
         Per-block histogram counts; a zero-length bin axis means "not requested".
+    threads : int, optional
+        Worker threads (default :func:`numba.get_num_threads`, i.e. all cores
+        unless changed); the result does not depend on it.
     """
-    for b in prange(rng.shape[0]):
-        _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-                   mom, imp, xext, hH, hx, hy, hj)
+    run_blocks(_run_block, rng.shape[0], (xs, ys, rng, starts, n_steps, step0,
+                                          sample_every, p, ip, mom, imp, xext,
+                                          hH, hx, hy, hj), threads)
 
 
-@njit(parallel=True, cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH)
 def snapshot(xs, ys, starts, p, mom, xext, hH, hx, hy, hj):
-    """Accumulate the current states of all paths once (transient densities)."""
+    """Accumulate the current states of all paths once (transient densities;
+    cheap, so serial)."""
     n_blocks = starts.shape[0] - 1
-    for b in prange(n_blocks):
+    for b in range(n_blocks):
         xmin = xext[b, 0]
         xmax = xext[b, 1]
         for i in range(starts[b], starts[b + 1]):
@@ -346,3 +400,12 @@ def snapshot(xs, ys, starts, p, mom, xext, hH, hx, hy, hj):
             xmax = max(xmax, xs[i])
         xext[b, 0] = xmin
         xext[b, 1] = xmax
+
+
+def normals_floor(rng, per_block, threads=None):
+    """Draw ``per_block`` normals from each block's stream (the RNG's own rate).
+
+    The same generator, the same blocking and the same thread-pool dispatch as
+    :func:`advance`; returns the per-block sums (so nothing is optimised away).
+    """
+    return np.array(run_blocks(_floor_block, rng.shape[0], (rng, per_block), threads))

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 # only fused multiply-add contraction: no reassociation, NaN/inf semantics kept
 FASTMATH = {"contract"}
@@ -60,13 +60,12 @@ _U127 = np.uint64(127)
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def _normal_full(s0, s1, s2, s3):
-    """One N(0, 1) draw by the ziggurat method, complete (not inlined)."""
+def _zig_finish(r, u, i, s0, s1, s2, s3):
+    """The complete ziggurat from the draw r (u its signed uniform, i its layer)
+    on: the rectangle test, else the tail (layer 0) or the wedge test, drawing
+    further outputs of the stream until a normal is accepted (out of line: one
+    compiled function for the whole rare path)."""
     while True:
-        r, s0, s1, s2, s3 = _next(s0, s1, s2, s3)
-        # signed top 53 bits -> u uniform in [-1, 1) (one int64 -> double conversion)
-        u = np.float64(np.int64(r) >> 11) * _TWO_M52
-        i = np.int64((r >> _U4) & _U127)
         if abs(u) < _ZR[i]:
             return u * _ZX[i], s0, s1, s2, s3
         if i == 0:                      # the tail beyond R
@@ -85,28 +84,11 @@ def _normal_full(s0, s1, s2, s3):
         r, s0, s1, s2, s3 = _next(s0, s1, s2, s3)
         if f1 + (np.float64(np.int64(r >> _U11)) * _TWO_M53) * (f0 - f1) < 1.0:
             return xw, s0, s1, s2, s3
-
-
-@njit(cache=True, fastmath=FASTMATH)
-def _normal_slow(r, u, i, s0, s1, s2, s3):
-    """Wedge / tail part of the ziggurat for a draw that missed the rectangle."""
-    if i == 0:                      # the tail beyond R
-        while True:
-            r, s0, s1, s2, s3 = _next(s0, s1, s2, s3)
-            xt = -math.log(np.float64(np.int64((r >> _U11) + _U1)) * _TWO_M53) / _ZR_TAIL
-            r, s0, s1, s2, s3 = _next(s0, s1, s2, s3)
-            yt = -math.log(np.float64(np.int64((r >> _U11) + _U1)) * _TWO_M53)
-            if yt + yt >= xt * xt:
-                break
-        z = _ZR_TAIL + xt
-        return (-z if u < 0.0 else z), s0, s1, s2, s3
-    xw = u * _ZX[i]
-    f0 = math.exp(-0.5 * (_ZX[i] * _ZX[i] - xw * xw))
-    f1 = math.exp(-0.5 * (_ZX[i + 1] * _ZX[i + 1] - xw * xw))
-    r, s0, s1, s2, s3 = _next(s0, s1, s2, s3)
-    if f1 + (np.float64(np.int64(r >> _U11)) * _TWO_M53) * (f0 - f1) < 1.0:
-        return xw, s0, s1, s2, s3
-    return _normal_full(s0, s1, s2, s3)
+        # rejected: start again from a fresh output
+        r, s0, s1, s2, s3 = _next(s0, s1, s2, s3)
+        # signed top 53 bits -> u uniform in [-1, 1) (one int64 -> double conversion)
+        u = np.float64(np.int64(r) >> 11) * _TWO_M52
+        i = np.int64((r >> _U4) & _U127)
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
@@ -122,11 +104,12 @@ def _normal(s0, s1, s2, s3):
     i = np.int64((r >> _U4) & _U127)
     if abs(u) < _ZR[i]:
         return u * _ZX[i], s0, s1, s2, s3
-    return _normal_slow(r, u, i, s0, s1, s2, s3)
+    return _zig_finish(r, u, i, s0, s1, s2, s3)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _floor_block(b, rng, per_block):
+    """Block b of :func:`._kernel.normals_floor`: ``per_block`` normals, summed."""
     s0 = rng[b, 0]
     s1 = rng[b, 1]
     s2 = rng[b, 2]
@@ -140,16 +123,3 @@ def _floor_block(b, rng, per_block):
     rng[b, 2] = s2
     rng[b, 3] = s3
     return acc
-
-
-@njit(parallel=True, cache=True, fastmath=FASTMATH)
-def normals_floor(rng, per_block):
-    """Draw ``per_block`` normals from each block's stream (the RNG's own rate).
-
-    The same generator, the same blocking and the same parallel dispatch as
-    :func:`advance`; returns the per-block sums (so nothing is optimised away).
-    """
-    out = np.zeros(rng.shape[0])
-    for b in prange(rng.shape[0]):
-        out[b] = _floor_block(b, rng, per_block)
-    return out
