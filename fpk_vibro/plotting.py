@@ -18,6 +18,16 @@ def _pyplot():
     return plt
 
 
+def _save(fig, path) -> Path:
+    """Lay out, write (creating the directory) and close a figure."""
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    _pyplot().close(fig)
+    return path
+
+
 def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *,
                      H_max: float | None = None, points: Sequence[tuple[str, np.ndarray,
                      np.ndarray, np.ndarray | None]] = (), title: str = "") -> Path:
@@ -53,12 +63,7 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *
     if title:
         ax.set_title(title, fontsize=10)
     ax.legend(frameon=False, fontsize=9)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 _LABELS = {"energy": (r"energy $H$", r"$p(H)$"), "x": (r"displacement $x$", r"$p(x)$"),
@@ -98,11 +103,7 @@ def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str
         ax.set_ylabel(yl)
         ax.set_title(title, fontsize=9)
         ax.legend(frameon=False, fontsize=8)
-        fig.tight_layout()
-        path = out_dir / f"{prefix}_{q}.png"
-        fig.savefig(path)
-        plt.close(fig)
-        written.append(path)
+        written.append(_save(fig, out_dir / f"{prefix}_{q}.png"))
     if "joint" in quantities:
         gx, gy = grids["joint"]
         n = len(solutions)
@@ -115,11 +116,7 @@ def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str
             ax.set_ylabel(r"velocity $y$")
             ax.set_title(method, fontsize=9)
         fig.suptitle(title, fontsize=9)
-        fig.tight_layout()
-        path = out_dir / f"{prefix}_joint.png"
-        fig.savefig(path)
-        plt.close(fig)
-        written.append(path)
+        written.append(_save(fig, out_dir / f"{prefix}_joint.png"))
     return written
 
 
@@ -145,11 +142,7 @@ def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") ->
     ax.set_ylabel({"E_H": r"$E[H](t)$", "E_x2": r"$E[x^2](t)$", "E_y2": r"$E[y^2](t)$"}.get(key, key))
     ax.set_title(title, fontsize=9)
     ax.legend(frameon=False, fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def work_precision(doc: dict, path) -> Path:
@@ -173,11 +166,7 @@ def work_precision(doc: dict, path) -> Path:
     ax.set_ylabel("max relative error of E[H], E[x²], E[y²]")
     ax.set_title(f"work–precision (truth: {doc['truth']['source']})", fontsize=9)
     ax.legend(frameon=False, fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def averaging_map(doc: dict, path) -> Path:
@@ -205,11 +194,7 @@ def averaging_map(doc: dict, path) -> Path:
                 ax.text(j, i, f"{v:.2g}", ha="center", va="center", fontsize=7,
                         color="w" if v > np.nanmax(grid[key]) / 2 else "k")
         fig.colorbar(im, ax=ax)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str = "") -> Path:
@@ -243,8 +228,4 @@ def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str
     ax.set_ylabel(yl)
     ax.set_title(title, fontsize=9)
     ax.legend(frameon=False, fontsize=7)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save(fig, path)

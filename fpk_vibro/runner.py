@@ -15,7 +15,6 @@ from __future__ import annotations
 import importlib
 import json
 import os
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -23,37 +22,11 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .io import atomic_savez, atomic_write_text
 from .model import VibroImpactSystem
 from .scenes import Scene
 
-__all__ = ["run_scene", "run_point", "atomic_write_text", "grids_for"]
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write via a temporary file and rename: readers never see half a file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def _atomic_savez(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+__all__ = ["run_scene", "run_point", "grids_for"]
 
 
 def grids_for(system: VibroImpactSystem, reference: Any) -> dict[str, np.ndarray]:
@@ -176,7 +149,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         fem_sol.save_vtu(path)
         record["vtu"] = path.name
     if "npz" in scene.formats and arrays:
-        _atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
+        atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
     atomic_write_text(out_dir / "points" / f"p{index}.json", json.dumps(record, indent=1))
     return record
 
@@ -224,7 +197,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
                 with np.load(f) as data:
                     merged.update({k: data[k] for k in data.files})
         if merged:
-            _atomic_savez(out_dir / "densities.npz", merged)
+            atomic_savez(out_dir / "densities.npz", merged)
             if scene.sweep and "png" in scene.formats:
                 from . import plotting
                 doc["figures"] = [plotting.sweep_overlay(

@@ -17,12 +17,12 @@ from __future__ import annotations
 import abc
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
+from .io import atomic_write
 from .model import VibroImpactSystem
 
 __all__ = ["Solution", "MOMENT_KEYS"]
@@ -104,16 +104,7 @@ class Solution(abc.ABC):
             "meta": np.array(json.dumps(meta, sort_keys=True)),
             **{k: np.asarray(v) for k, v in arrays.items()},
         }
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **payload)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        atomic_write(path, lambda fh: np.savez(fh, **payload))
         return path
 
     @classmethod

@@ -19,7 +19,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .model import VibroImpactSystem
-from .runner import atomic_write_text
+from .io import atomic_write_text
 from .scenes import Scene
 
 __all__ = ["convergence_study", "averaging_study", "cost_of_accuracy"]
