@@ -1,0 +1,42 @@
+"""Every example scene runs end to end at a reduced size, and its numbers make sense."""
+import json
+from pathlib import Path
+
+import pytest
+
+from fpk_vibro.runner import run_scene
+from fpk_vibro.scenes import load_scene
+
+EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.toml"))
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_scene_runs(tmp_path, path):
+    scene = load_scene(path).reduced()
+    doc = run_scene(scene, out=tmp_path, workers=1, log=lambda s: None)
+    assert len(doc["points"]) == len(scene.points())
+    for point in doc["points"]:
+        assert "error" not in point, point.get("error")
+        assert list(point["methods"]) == list(scene.methods)
+        for method, entry in point["methods"].items():
+            recs = entry["at"] if "at" in entry else [entry]
+            for rec in recs:
+                m = rec["moments"]
+                assert all(v == v for v in m.values())          # no NaN
+                assert 0 < m["E_H"] < 2 and 0 <= m.get("P_impact", 0) <= 1
+    if "png" in scene.formats:
+        for point in doc["points"]:
+            for name in point.get("figures", []):
+                assert (tmp_path / name).stat().st_size > 5_000
+    assert json.loads((tmp_path / "results.json").read_text())["name"] == scene.name
+
+
+def test_reduced_scene_agrees_roughly_across_methods(tmp_path):
+    """The exact-check example: averaging equals exact; FE and MC are close even reduced."""
+    scene = load_scene(EXAMPLES[[p.stem for p in EXAMPLES].index("exact_check")]).reduced()
+    m = run_scene(scene, out=tmp_path, workers=1, log=lambda s: None)["points"][0]["methods"]
+    exact = m["exact"]["moments"]["E_H"]
+    assert m["averaging"]["moments"]["E_H"] == pytest.approx(exact, rel=1e-10)
+    assert m["fem"]["moments"]["E_H"] == pytest.approx(exact, rel=0.02)
+    mc, se = m["montecarlo"]["moments"]["E_H"], m["montecarlo"]["moments_se"]["E_H"]
+    assert abs(mc - exact) < 4 * se + 0.002 * exact
