@@ -109,3 +109,18 @@ def test_agrees_with_monte_carlo_transient(paper92):
         for k in ("E_H", "E_x2", "E_y2"):
             tol = 3 * se[k] + abs(b[k] - a[k])
             assert abs(b[k] - mm[k]) <= tol, (t, k, b[k], mm[k], se[k], abs(b[k] - a[k]))
+
+
+def test_adaptive_steps_follow_the_tolerance(paper92, coarse):
+    times = [1.0, 5.0, 20.0]
+    ref = transient(paper92, initial=SMOOTH, times=times, dt=0.0025, discretisation=coarse)
+    errs = []
+    for tol in (1e-4, 1e-6):
+        run = transient(paper92, initial=SMOOTH, times=times, dt=5.0, tol=tol,
+                        discretisation=coarse)
+        assert [s.time for s in run] == times and all(abs(s.mass - 1) < 1e-12 for s in run)
+        errs.append(max(l1(coarse, a.dofs, b.dofs) for a, b in zip(run, ref)))
+    assert errs[0] < 2e-2 and errs[1] < 1e-3 and errs[1] < errs[0] / 10
+    with pytest.raises(ValueError, match="tol"):
+        transient(paper92, initial=SMOOTH, times=times, tol=1e-4, scheme="theta",
+                  discretisation=coarse)

@@ -127,7 +127,7 @@ def default_dt(system: VibroImpactSystem) -> float:
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
               dt: float | None = None, scheme: str = "bdf2", nx: int | None = None,
               ny: int | None = None, degree: int = 1, mesh=None, y_max: float | None = None,
-              theta: float = 0.5, progress: bool | None = None,
+              theta: float = 0.5, tol: float | None = None, progress: bool | None = None,
               discretisation: Discretisation | None = None) -> list[FEMSolution]:
     """Densities at ``times`` from ``initial`` (DESIGN §3 transient).
 
@@ -149,6 +149,12 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         As in :func:`fpk_vibro.fem.stationary`.
     theta : float
         θ of the θ-scheme, in [1/2, 1].
+    tol : float, optional
+        Adaptive steps (BDF2 only): the local error of each step, estimated by
+        Milne's device against the quadratic extrapolation of the last three
+        states, is kept below ``tol`` in L1 (∫|Δp|); ``dt`` is then the first and
+        largest step.  Step sizes are rounded to a ladder 2^(k/4)·dt so that LU
+        factors are reused.  None (default): fixed steps of at most ``dt``.
     progress : bool, optional
         A progress line on stderr (default: when stderr is a terminal and the run
         has more than 2000 steps).
@@ -167,6 +173,11 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         raise ValueError(f"fem.transient: scheme must be one of {SCHEMES}; got {scheme!r}")
     if isinstance(theta, bool) or not isinstance(theta, (int, float)) or not 0.5 <= theta <= 1:
         raise ValueError(f"fem.transient: theta must be in [0.5, 1]; got {theta!r}")
+    if tol is not None:
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-14 <= tol <= 1:
+            raise ValueError(f"fem.transient: tol must be a number in [1e-14, 1]; got {tol!r}")
+        if scheme != "bdf2":
+            raise ValueError("fem.transient: tol (adaptive steps) needs scheme='bdf2'")
     if dt is None:
         dt = default_dt(system)
     elif isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
@@ -183,6 +194,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             lu_cache[key] = spla.splu((a0 * M - h * L).tocsc(), permc_spec="COLAMD")
         return lu_cache[key].solve(rhs)
 
+    if tol is not None:
+        return _march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache)
     n_total = int(sum(math.ceil((b - a) / dt - 1e-9) for a, b in zip(np.r_[0.0, t_out[:-1]], t_out)))
     show = progress if progress is not None else (sys.stderr.isatty() and n_total > 2000)
     out: list[FEMSolution] = []
@@ -195,30 +208,86 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             for _ in range(n):
                 if scheme == "theta":
                     p_new = solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
-                elif p_prev is None:
-                    p_new = solve(1.0, h, M @ p)
                 else:
-                    w = h / h_prev
-                    p_new = solve((1 + 2 * w) / (1 + w), h,
-                                  M @ ((1 + w) * p - (w * w / (1 + w)) * p_prev))
+                    p_new = _bdf2(solve, M, p, p_prev, h, h_prev)
                 p_prev, p, h_prev = p, p_new, h
                 steps += 1
                 if show and steps % 200 == 0:
                     print(f"\rfem.transient: step {steps}/{n_total}  t = {t_now + h:.4g}",
                           end="", file=sys.stderr)
             t_now = float(t_target)
-            sol = disc.solution(p.copy(), time=t_now, steps=steps, scheme=scheme, dt=h or dt)
-            sol.time = t_now
-            out.append(sol)
+            out.append(_snapshot(disc, p, t_now, steps=steps, scheme=scheme, dt=h or dt))
     except KeyboardInterrupt:
-        for s in out:
-            s.info["partial"] = True
-        print(f"\nfem.transient: interrupted at t = {t_now:g}; returning {len(out)} "
-              "finished time(s)", file=sys.stderr)
+        _mark_partial(out, t_now)
     finally:
         if show:
             print(f"\rfem.transient: {steps} steps in {time.perf_counter() - t0:.1f} s",
                   file=sys.stderr)
+    return out
+
+
+def _bdf2(solve, M, p, p_prev, h, h_prev):
+    """One variable-step BDF2 step (implicit Euler when there is no previous state)."""
+    if p_prev is None:
+        return solve(1.0, h, M @ p)
+    w = h / h_prev
+    return solve((1 + 2 * w) / (1 + w), h, M @ ((1 + w) * p - (w * w / (1 + w)) * p_prev))
+
+
+def _snapshot(disc: Discretisation, p: np.ndarray, t: float, **info: Any) -> FEMSolution:
+    sol = disc.solution(p.copy(), time=t, **info)
+    sol.time = t
+    return sol
+
+
+def _mark_partial(out: list[FEMSolution], t_now: float) -> None:
+    for s in out:
+        s.info["partial"] = True
+    print(f"\nfem.transient: interrupted at t = {t_now:g}; returning {len(out)} "
+          "finished time(s)", file=sys.stderr)
+
+
+def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache) -> list[FEMSolution]:
+    """BDF2 with step-size control by Milne's device (see :func:`transient`)."""
+    M = disc.M.tocsc()
+    hist = [(0.0, p)]                      # accepted (t, p), newest last, at most 3
+    h = dt_max / 1024.0                    # the first two steps are not error-controlled
+    out: list[FEMSolution] = []
+    steps = rejected = 0
+    t_now = 0.0
+    try:
+        for t_target in t_out:
+            while t_now < t_target - 1e-12 * max(1.0, t_target):
+                h = min(h, dt_max)
+                h = dt_max * 2.0 ** (round(4 * math.log2(h / dt_max)) / 4)   # the LU ladder
+                step = min(h, t_target - t_now)
+                t_new = t_now + step
+                prev = hist[-2] if len(hist) >= 2 else None
+                p_new = _bdf2(solve, M, hist[-1][1], None if prev is None else prev[1],
+                              step, None if prev is None else t_now - prev[0])
+                if len(hist) == 3:         # quadratic extrapolation: error O(h³), like BDF2
+                    (t0, p0), (t1, p1), (t2, p2) = hist
+                    l0 = (t_new - t1) * (t_new - t2) / ((t0 - t1) * (t0 - t2))
+                    l1 = (t_new - t0) * (t_new - t2) / ((t1 - t0) * (t1 - t2))
+                    l2 = (t_new - t0) * (t_new - t1) / ((t2 - t0) * (t2 - t1))
+                    err = (2.0 / 11.0) * float(disc.unit @ np.abs(p_new - (l0 * p0 + l1 * p1 + l2 * p2)))
+                else:
+                    err = 0.0
+                factor = 2.0 if err == 0 else min(2.0, max(0.2, 0.9 * (tol / err) ** (1 / 3)))
+                if err > tol:
+                    rejected += 1
+                    h = step * factor
+                    continue
+                t_now = t_new
+                hist = (hist + [(t_now, p_new)])[-3:]
+                steps += 1
+                h = step * factor if step >= h * 0.999 else h
+                if len(lu_cache) > 24:
+                    lu_cache.clear()
+            out.append(_snapshot(disc, hist[-1][1], float(t_target), steps=steps,
+                                 rejected=rejected, scheme="bdf2", tol=tol))
+    except KeyboardInterrupt:
+        _mark_partial(out, t_now)
     return out
 
 
@@ -237,7 +306,7 @@ def relaxation_time(system: VibroImpactSystem, *, tol: float = 1e-3,
     dict with ``rate`` (λ1), ``time`` (ln(1/tol)/λ1) and ``eigenvalues`` (the few
     computed, sorted by |Re|).
     """
-    if not (isinstance(tol, float) and 0 < tol < 1):
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1:
         raise ValueError(f"relaxation_time: tol must be a float in (0, 1); got {tol!r}")
     disc = discretisation or discretise(system, **mesh_kw)
     sigma = -1e-6
