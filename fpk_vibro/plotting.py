@@ -170,30 +170,33 @@ def work_precision(doc: dict, path) -> Path:
 
 
 def averaging_map(doc: dict, path) -> Path:
-    """Heat maps of the averaging error over (r, c): L1 of p(H) and E[H]."""
+    """Heat maps of the averaging error over (r, c), one row per noise level:
+    the L1 distance of p(H) and |E[H] error| against FE."""
     plt = _pyplot()
-    rs, cs = doc["r"], doc["c"]
-    grid = {k: np.full((len(cs), len(rs)), np.nan) for k in ("L1_pH", "rel_E_H")}
-    for cell in doc["cells"]:
-        if "error" in cell:
-            continue
-        i, j = cs.index(cell["c"]), rs.index(cell["r"])
-        grid["L1_pH"][i, j] = cell["L1_pH"]
-        grid["rel_E_H"][i, j] = 100 * abs(cell["rel_E_H"])
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), dpi=110)
-    for ax, (key, title) in zip(axes, (("L1_pH", "L1 distance of p(H), averaging vs FE"),
-                                       ("rel_E_H", "|E[H] error| of averaging (%)"))):
-        im = ax.imshow(grid[key], origin="lower", aspect="auto", cmap="magma_r")
-        ax.set_xticks(range(len(rs)), [f"{r:g}" for r in rs])
-        ax.set_yticks(range(len(cs)), [f"{c:g}" for c in cs])
-        ax.set_xlabel("restitution r")
-        ax.set_ylabel("damping c")
-        ax.set_title(title, fontsize=9)
-        for (i, j), v in np.ndenumerate(grid[key]):
-            if np.isfinite(v):
-                ax.text(j, i, f"{v:.2g}", ha="center", va="center", fontsize=7,
-                        color="w" if v > np.nanmax(grid[key]) / 2 else "k")
-        fig.colorbar(im, ax=ax)
+    rs, cs, noise = doc["r"], doc["c"], doc.get("noise", [1.0])
+    fig, axes = plt.subplots(len(noise), 2, figsize=(10, 4.0 * len(noise)), dpi=110,
+                             squeeze=False)
+    for row, q in zip(axes, noise):
+        grid = {k: np.full((len(cs), len(rs)), np.nan) for k in ("L1_pH", "rel_E_H")}
+        for cell in doc["cells"]:
+            if "error" in cell or cell.get("noise", 1.0) != q:
+                continue
+            i, j = cs.index(cell["c"]), rs.index(cell["r"])
+            grid["L1_pH"][i, j] = cell["L1_pH"]
+            grid["rel_E_H"][i, j] = 100 * abs(cell["rel_E_H"])
+        for ax, (key, title) in zip(row, (("L1_pH", "L1 distance of p(H), averaging vs FE"),
+                                          ("rel_E_H", "|E[H] error| of averaging (%)"))):
+            im = ax.imshow(grid[key], origin="lower", aspect="auto", cmap="magma_r")
+            ax.set_xticks(range(len(rs)), [f"{r:g}" for r in rs])
+            ax.set_yticks(range(len(cs)), [f"{c:g}" for c in cs])
+            ax.set_xlabel("restitution r")
+            ax.set_ylabel("damping c")
+            ax.set_title(f"{title}, noise ×{q:g}", fontsize=9)
+            for (i, j), v in np.ndenumerate(grid[key]):
+                if np.isfinite(v):
+                    ax.text(j, i, f"{v:.2g}", ha="center", va="center", fontsize=7,
+                            color="w" if v > np.nanmax(grid[key]) / 2 else "k")
+            fig.colorbar(im, ax=ax)
     return _save(fig, path)
 
 

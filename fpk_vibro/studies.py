@@ -75,11 +75,23 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
                     degree=degree, nx=nx)
     if "montecarlo" in methods:
         montecarlo.stationary(system, n_paths=64, t_sample=10.0, seed=0, progress=False)
-        for rse in ((1e-2, 3e-3) if quick else (1e-2, 3e-3, 1e-3)):
+
+        def mc(label: str, **kw) -> None:
             sol, dt = _timed(lambda: montecarlo.stationary(
-                system, seed=1, target_rse=rse, quantities=("energy",), progress=False))
-            add("montecarlo", f"target SE {rse:g} (dt={sol.dt:.3g})", sol.moments(), dt,
+                system, seed=1, quantities=("energy",), progress=False, **kw))
+            add("montecarlo", f"{label} (dt={sol.dt:.3g})", sol.moments(), dt,
                 se=_err({k: sol.moments()[k] + sol.moments_se()[k] for k in KEYS}, sol.moments()))
+        # sampled time (paths × time) at the default dt ...
+        for rse in ((1e-2, 3e-3) if quick else (1e-2, 3e-3, 1e-3)):
+            mc(f"target SE {rse:g}", target_rse=rse)
+        # ... the number of paths at a fixed sampled time per path ...
+        for n in ((256, 1024) if quick else (256, 1024, 4096)):
+            mc(f"{n} paths, t_sample 400", n_paths=n, t_sample=400.0)
+        # ... and the time step (its bias), at a fixed target SE
+        dt0 = montecarlo.stationary(system, n_paths=64, t_sample=10.0, seed=0, progress=False).dt
+        for f in ((2.0, 0.5) if quick else (4.0, 2.0, 0.5)):
+            mc(f"dt × {f:g}, target SE {3e-3 if quick else 1e-3:g}", dt=f * dt0,
+               target_rse=3e-3 if quick else 1e-3)
     if "averaging" in methods:
         ref = averaging.stationary(system, n_theta=96, n_panel=48).moments()
         for nt, npan in ((6, 4), (8, 6), (12, 8), (24, 16), (48, 24)):
@@ -107,29 +119,34 @@ def cost_of_accuracy(rows: list[dict[str, Any]], targets=(1e-2, 1e-3, 1e-4)) -> 
 
 
 def averaging_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str, Any]:
-    """Averaging error against FE over a grid of r and c (the scene's other parameters)."""
+    """Averaging error against FE over a grid of r, c and the noise level.
+
+    The noise level multiplies both D1 and D2 of the scene's system (×1, ×4).
+    """
     from . import averaging, fem
     base = scene.points()[0][1]
     rs = (1.0, 0.8, 0.5, 0.2) if quick else (1.0, 0.98, 0.92, 0.8, 0.6, 0.4, 0.2, 0.05)
     cs = (0.025, 0.1) if quick else (0.01, 0.025, 0.05, 0.1, 0.2)
+    noise = (1.0,) if quick else (1.0, 4.0)
     nx = 32 if quick else 64
     cells = []
-    for c in cs:
-        for r in rs:
-            s = base.replace(r=r, c=c, D2=base.D2)
-            try:
-                a = averaging.stationary(s)
-            except ValueError as exc:
-                cells.append({"r": r, "c": c, "error": str(exc)})
-                continue
-            f = fem.stationary(s, degree=2, nx=nx)
-            ma, mf = a.moments(), f.moments()
-            H = np.linspace(0.0, 12 * mf["E_H"], 2401)
-            l1 = float(np.trapezoid(np.abs(a.pdf_energy(H) - f.pdf_energy(H)), H))
-            cell = {"r": r, "c": c, "L1_pH": l1, **{f"rel_{k}": ma[k] / mf[k] - 1 for k in KEYS}}
-            cells.append(cell)
-            log(f"  c={c:<6g} r={r:<5g} L1 p(H) {l1:.3f}  E[H] {cell['rel_E_H']:+.3%}")
-    return {"system": base.to_dict(), "r": list(rs), "c": list(cs), "cells": cells}
+    for q, c, r in ((q, c, r) for q in noise for c in cs for r in rs):
+        s = base.replace(r=r, c=c, D1=q * base.D1, D2=q * base.D2)
+        try:
+            a = averaging.stationary(s)
+        except ValueError as exc:
+            cells.append({"r": r, "c": c, "noise": q, "error": str(exc)})
+            continue
+        f = fem.stationary(s, degree=2, nx=nx)
+        ma, mf = a.moments(), f.moments()
+        H = np.linspace(0.0, 12 * mf["E_H"], 2401)
+        l1 = float(np.trapezoid(np.abs(a.pdf_energy(H) - f.pdf_energy(H)), H))
+        cell = {"r": r, "c": c, "noise": q, "L1_pH": l1,
+                **{f"rel_{k}": ma[k] / mf[k] - 1 for k in KEYS}}
+        cells.append(cell)
+        log(f"  noise×{q:<3g} c={c:<6g} r={r:<5g} L1 p(H) {l1:.3f}  E[H] {cell['rel_E_H']:+.3%}")
+    return {"system": base.to_dict(), "r": list(rs), "c": list(cs), "noise": list(noise),
+            "cells": cells}
 
 
 def write_study(kind: str, doc: dict[str, Any], out: Path) -> list[Path]:
