@@ -128,8 +128,7 @@ def cmd_study(args: argparse.Namespace) -> int:
     else:
         doc = studies.averaging_study(scene, quick=args.quick)
     files = studies.write_study(args.kind, doc, out)
-    if args.kind == "convergence":
-        print(studies.markdown_table(doc))
+    print(studies.markdown_table(doc) if args.kind == "convergence" else studies.averaging_table(doc))
     print("  wrote " + ", ".join(str(f) for f in files))
     return 0
 

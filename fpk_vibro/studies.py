@@ -179,3 +179,19 @@ def markdown_table(doc: dict[str, Any]) -> str:
         lines.append(f"| {method} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
+
+def averaging_table(doc: dict[str, Any]) -> str:
+    """The averaging study as Markdown: |E[H] error| (%) per (noise, c) row and r column."""
+    rs = doc["r"]
+    lines = ["| noise | c | " + " | ".join(f"r = {r:g}" for r in rs) + " |",
+             "|---|---|" + "---|" * len(rs)]
+    for q in doc.get("noise", [1.0]):
+        for c in doc["c"]:
+            cells = []
+            for r in rs:
+                cell = next(x for x in doc["cells"] if x["r"] == r and x["c"] == c
+                            and x.get("noise", 1.0) == q)
+                cells.append("error" if "error" in cell else f"{100 * cell['rel_E_H']:+.2f} %")
+            lines.append(f"| ×{q:g} | {c:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
