@@ -33,6 +33,8 @@ from .solution import FEMSolution
 __all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
 
 SCHEMES = ("bdf2", "theta")
+#: Local L1 error per step of the adaptive default (``dt`` and ``tol`` not given).
+DEFAULT_TOL = 1e-5
 
 
 class Discretisation:
@@ -142,8 +144,10 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     times : sequence of float
         Strictly increasing output times ≥ 0.
     dt : float, optional
-        Largest time step (default :func:`default_dt`); each interval between
-        output times is split into equal steps so every time is hit exactly.
+        Fixed steps: the largest time step; each interval between output times is
+        split into equal steps so every time is hit exactly.  Not given (and no
+        ``tol``): adaptive BDF2 steps with ``tol = DEFAULT_TOL`` (1e-5) and at most
+        :func:`default_dt` — a narrow initial packet needs small steps at first.
     scheme : {"bdf2", "theta"}
     nx, ny, degree, mesh, y_max
         As in :func:`fpk_vibro.fem.stationary`.
@@ -180,6 +184,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             raise ValueError("fem.transient: tol (adaptive steps) needs scheme='bdf2'")
     if dt is None:
         dt = default_dt(system)
+        if tol is None and scheme == "bdf2":
+            tol = DEFAULT_TOL          # no step given: adaptive steps by default
     elif isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"fem.transient: dt must be a finite number > 0; got {dt!r}")
     disc = discretisation or discretise(system, mesh=mesh, nx=nx, ny=ny, y_max=y_max,
