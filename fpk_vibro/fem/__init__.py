@@ -126,6 +126,22 @@ def _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
                          "assembly (a tensor grid); use 'upwind' or 'afc' otherwise")
 
 
+def default_mesh(system: VibroImpactSystem, nx: int | None, ny: int | None,
+                 y_max: float | None, degree: int, element: str, grading: float):
+    """(domain, mesh, x-nodes, y-nodes) of the structured default mesh.
+
+    ``nx`` defaults to :data:`DEFAULT_NX`; ``ny`` to the even number giving cells
+    with h_y ≈ 1.5 h_x.
+    """
+    dom = domain(system, y_max)
+    nx = DEFAULT_NX[degree] if nx is None else int(nx)
+    if ny is None:
+        ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
+        ny = max(2, 2 * int(round(0.5 * nx * ratio)))
+    m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
+    return dom, m, xs, ys
+
+
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                solver: str = "auto", element: str = "quad", grading: float = 0.0,
@@ -189,12 +205,7 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     t0 = time.perf_counter()
     tensor = None
     if mesh is None:
-        dom = domain(system, y_max)
-        nx = DEFAULT_NX[degree] if nx is None else int(nx)
-        if ny is None:
-            ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
-            ny = max(2, 2 * int(round(0.5 * nx * ratio)))
-        m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
+        dom, m, xs, ys = default_mesh(system, nx, ny, y_max, degree, element, grading)
         if element == "quad" and assembly != "general":
             tensor = (xs, ys)
     else:

@@ -27,7 +27,7 @@ from ..initial import parse_initial
 from ..model import VibroImpactSystem
 from ..solution import Solution
 from .generator import assemble, assemble_tensor, element_for, quadrature_order, tensor_index
-from .mesh import domain, load_mesh, structured_mesh
+from .mesh import load_mesh
 from .solution import FEMSolution
 
 __all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
@@ -57,15 +57,10 @@ def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                element: str = "quad", grading: float = 0.0) -> Discretisation:
     """Build the mesh and assemble (L, M) exactly as :func:`stationary` does."""
-    from . import DEFAULT_NX, _validate
+    from . import _validate, default_mesh
     _validate(system, mesh, nx, ny, y_max, degree, "auto", element, grading, False, "auto")
     if mesh is None:
-        dom = domain(system, y_max)
-        nx = DEFAULT_NX[degree] if nx is None else int(nx)
-        if ny is None:
-            ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
-            ny = max(2, 2 * int(round(0.5 * nx * ratio)))
-        m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
+        dom, m, xs, ys = default_mesh(system, nx, ny, y_max, degree, element, grading)
         if element == "quad":
             op = assemble_tensor(system, xs, ys, degree, dom)
             order = None
