@@ -131,13 +131,14 @@ def default_mesh(system: VibroImpactSystem, nx: int | None, ny: int | None,
     """(domain, mesh, x-nodes, y-nodes) of the structured default mesh.
 
     ``nx`` defaults to :data:`DEFAULT_NX`; ``ny`` to the even number giving cells
-    with h_y ≈ 1.5 h_x.
+    with h_y ≈ 1.5 h_x, at most 4 nx (a narrow strip, e.g. Δ = 0.05, would
+    otherwise get ~10⁶ cells in y for nothing).
     """
     dom = domain(system, y_max)
     nx = DEFAULT_NX[degree] if nx is None else int(nx)
     if ny is None:
         ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
-        ny = max(2, 2 * int(round(0.5 * nx * ratio)))
+        ny = max(2, 2 * int(round(0.5 * nx * min(ratio, 4.0))))
     m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
     return dom, m, xs, ys
 
@@ -159,10 +160,11 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         line), e.g. from ``meshes/``.  Default: a structured mesh.
     nx, ny : int, optional
         Cells across x and y (``ny`` even).  Default ``nx`` = 128 (Q1) / 48 (Q2),
-        ``ny`` the even number giving cells with h_y ≈ 1.5 h_x.
+        ``ny`` the even number giving cells with h_y ≈ 1.5 h_x, at most 4 nx.
     y_max : float, optional
-        Truncation |y| < y_max; default the Gibbs-tail rule of
-        :mod:`fpk_vibro.fem.mesh` (mass beyond < 1e-8).
+        Truncation |y| < y_max; default from the averaged energy tail (mass beyond
+        < 1e-8, :func:`fpk_vibro.fem.mesh.domain`), or the Gibbs-tail rule where
+        averaging does not apply.
     degree : {1, 2}
         Q1/P1 or Q2/P2 Lagrange elements.
     solver : {"auto", "direct", "amg", "amg-sa"}
