@@ -6,24 +6,10 @@ from skfem import Functional, asm
 
 from fpk_vibro import VibroImpactSystem
 from fpk_vibro.fem import stationary
+from fpk_vibro.fem.benchmark import exact_errors
 
 SYSTEM = VibroImpactSystem.paper(r=1.0, D2=0.0)
 BETA = SYSTEM.c / SYSTEM.D1
-
-
-def exact_errors(sol):
-    """(L1 error, max nodal error, max p) of a FEMSolution against the Gibbs density."""
-    s = sol.system
-
-    def gibbs(x, y):
-        return np.exp(-BETA * s.energy(x, y))
-
-    Z = asm(Functional(lambda w: gibbs(w.x[0], w.x[1])), sol.basis)
-    L1 = asm(Functional(lambda w: abs(w.p - gibbs(w.x[0], w.x[1]) / Z)), sol.basis,
-             p=sol.basis.interpolate(sol.dofs))
-    X = sol.basis.doflocs
-    emax = np.max(np.abs(sol.dofs - gibbs(X[0], X[1]) / Z))
-    return L1, emax
 
 
 def rates(levels, **kw):
