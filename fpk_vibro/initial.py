@@ -29,7 +29,7 @@ from scipy import special
 
 from .model import VibroImpactSystem
 
-__all__ = ["InitialCondition", "parse_initial"]
+__all__ = ["InitialCondition", "parse_initial", "parse_times"]
 
 
 def _bad(field: str, allowed: str, value: Any) -> ValueError:
@@ -197,3 +197,22 @@ def parse_initial(spec: Any, system: VibroImpactSystem) -> InitialCondition:
     if not lo <= mean[0] <= hi:
         raise _bad("mean[0] (x0)", f"in the strip [{lo}, {hi}]", mean[0])
     return InitialCondition(system=system, mean=mean, std=std)
+
+
+def parse_times(times: Any, where: str, *, increasing: bool = True) -> np.ndarray:
+    """Validate the output ``times`` of a transient method (shared by all of them).
+
+    Finite numbers ≥ 0, at least one; strictly increasing when ``increasing``.
+    Raises ``ValueError`` naming ``times`` and ``where`` (e.g. "fem.transient").
+    """
+    rule = ("a non-empty, strictly increasing sequence of finite numbers >= 0" if increasing
+            else "a non-empty sequence of finite numbers >= 0")
+    try:
+        t = np.asarray(times, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: times must be {rule}; got {times!r}") from None
+    if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t < 0) or \
+            (increasing and np.any(np.diff(t) <= 0)):
+        raise ValueError(f"{where}: times must be {rule}; got {times!r}")
+    return t
+

@@ -21,7 +21,7 @@ from typing import Any, Sequence
 import numpy as np
 from scipy import integrate, sparse, special
 
-from ..initial import InitialCondition, parse_initial
+from ..initial import InitialCondition, parse_initial, parse_times
 from ..model import VibroImpactSystem
 from ..orbits import orbit_nodes
 from .coefficients import _check_int, _rate, coefficients
@@ -100,17 +100,6 @@ def initial_cell_masses(init: InitialCondition, faces: np.ndarray, *, n_samples:
     return np.diff(F)
 
 
-def _check_times(times: Any) -> np.ndarray:
-    try:
-        t = np.asarray(times, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"averaging.transient: times must be numbers >= 0; got {times!r}") from None
-    if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t < 0):
-        raise ValueError(f"averaging.transient: times must be a non-empty list of finite "
-                         f"numbers >= 0; got {times!r}")
-    return t
-
-
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
               n_cells: int = 400, H_max: float | None = None, rtol: float = 1e-8,
               seed: int = 0) -> list[EnergyGridSolution]:
@@ -142,7 +131,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         Each with ``.time``, ``.mass`` (1 to round-off) and the Solution interface.
     """
     init = parse_initial(initial, system)
-    t_out = _check_times(times)
+    t_out = parse_times(times, "averaging.transient", increasing=False)
     n_cells = _check_int("n_cells", n_cells, 16, 200_000)
     if not (isinstance(rtol, (int, float)) and 1e-13 <= rtol <= 1e-2):
         raise ValueError(f"averaging.transient: rtol must be in [1e-13, 1e-2]; got {rtol!r}")

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import skfem
 
-from ..initial import parse_initial
+from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from ..solution import Solution
 from .generator import assemble, assemble_tensor, element_for, quadrature_order, tensor_index
@@ -104,17 +104,6 @@ def _initial_vector(disc: Discretisation, initial: Any) -> np.ndarray:
     return p0 / total
 
 
-def _check_times(times: Any) -> np.ndarray:
-    try:
-        t = np.asarray(times, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"fem.transient: times must be numbers >= 0; got {times!r}") from None
-    if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t < 0) or np.any(np.diff(t) <= 0):
-        raise ValueError("fem.transient: times must be a non-empty, strictly increasing "
-                         f"sequence of finite numbers >= 0; got {times!r}")
-    return t
-
-
 def default_dt(system: VibroImpactSystem) -> float:
     """A twentieth of the small-oscillation period at the barrier: 2π/(20 ω0)."""
     X = system.delta if system.has_barrier else 1.0
@@ -167,7 +156,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         interrupted (Ctrl-C) the finished ones, each with ``partial=True`` in
         ``info``.
     """
-    t_out = _check_times(times)
+    t_out = parse_times(times, "fem.transient")
     if scheme not in SCHEMES:
         raise ValueError(f"fem.transient: scheme must be one of {SCHEMES}; got {scheme!r}")
     if isinstance(theta, bool) or not isinstance(theta, (int, float)) or not 0.5 <= theta <= 1:

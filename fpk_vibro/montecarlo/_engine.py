@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..initial import parse_initial
+from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from . import _kernel as K
 from . import _setup as S
@@ -298,15 +298,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     """
     F = "transient"
     system = S.check_system(F, system)
-    try:
-        tarr = np.asarray(times, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise S.fail(F, "times", "a sequence of finite increasing numbers >= 0", times) \
-            from None
-    if tarr.size == 0 or not np.all(np.isfinite(tarr)) or tarr[0] < 0 or \
-            np.any(np.diff(tarr) <= 0):
-        raise S.fail(F, "times", "a non-empty sequence of finite, strictly increasing "
-                     "numbers >= 0", times)
+    tarr = parse_times(times, f"montecarlo.{F}")
     n_paths = S.check_int(F, "n_paths", n_paths, 2, 10**9)
     n_batches = S.check_int(F, "n_batches", n_batches, 2, n_paths)
     dt = S.check_dt(F, system, S.default_dt(system) if dt is None else dt)
