@@ -63,8 +63,8 @@ Parallelism and reproducibility: paths are split into ``n_batches`` blocks,
 each with its own xoshiro256+ stream seeded by ``numpy.random.SeedSequence``;
 the blocks are shared out to a thread pool (``threads``, default
 ``numba.get_num_threads()``: all cores) running one compiled ``nogil`` block
-function, and a block's paths are advanced in a fixed order (four lanes at a
-time, normals drawn step by step then lane by lane), so a seed gives
+function, and a block's paths are advanced in a fixed order (chunks of 64 paths,
+normals drawn step by step then path by path), so a seed gives
 bit-identical results for any number of threads.  Standard errors come from the
 spread between blocks (independent batches).
 

@@ -6,12 +6,9 @@ Prints
    default dt, default sampling of all four histograms) next to the rate at which
    the kernel's own random source (xoshiro256+ with ziggurat normals, same
    blocking, same thread-pool dispatch) draws standard normals alone — the
-   floor of one normal per path-step — single-thread and with all cores (best
-   of the repeats, wall time; single-thread also by the thread's CPU time,
-   which a busy machine disturbs less).  Under the former numba ``prange``
-   dispatch the normals alone ran at ~2.0e8/s instead of ~3e8/s, so its
-   kernel/floor ratios (0.37-0.45) were flattered; the kernel rate itself is
-   unchanged (figures in :mod:`fpk_vibro.montecarlo`);
+   floor of one normal per path-step — single-thread and with all cores (see
+   :func:`rates` for how the repeats are paired on a shared machine; figures
+   in :mod:`fpk_vibro.montecarlo`);
 2. the bias of E[H] against dt (each run to a target relative standard error,
    compared with the run at half the default dt);
 3. the wall time of ``stationary(VibroImpactSystem.paper(r=0.92),
@@ -82,34 +79,47 @@ def _time_floor(st, per_block, cpu=False):
     return clock() - t
 
 
-def rates(n_paths=2048, n_batches=32, path_steps=1.6e8, repeats=3, threads=None):
-    """Best-of-``repeats`` rates per thread count: (kernel with sampling, kernel
-    without sampling, normals alone) in path-steps/s resp. normals/s by wall
-    time, and for one thread also the kernel/floor ratio by the thread's CPU
-    time (one thread runs the blocks in the calling thread)."""
+def rates(n_paths=2048, n_batches=32, path_steps=1.6e8, repeats=5, threads=None):
+    """Kernel and floor rates per thread count, measured back to back.
+
+    Each repeat times the kernel with sampling, the kernel without sampling and
+    the normals alone, one right after the other, so that the three see the same
+    machine load; the kernel/floor ratio is the median over repeats of these
+    paired ratios (a shared machine's load drifts between repeats, which
+    best-of-n rates taken at different moments would mix).  For one thread
+    (blocks run in the calling thread) the ratio is also given by the thread's
+    CPU time.
+
+    Returns ``{threads: dict(kernel=, kernel_nosample=, floor=, ratio=,
+    ratio_cpu=)}``: best rates over the repeats (path-steps/s resp. normals/s,
+    wall time) and the median paired ratios.
+    """
     system = VibroImpactSystem.paper(r=0.92)
     st = _kernel_setup(system, n_paths, n_batches, 7)
     _time_kernel(st, 4)                      # compile / load the cache
     _time_floor(st, 4)
     n_steps = max(2, int(path_steps // n_paths))
     per_block = n_steps * n_paths // n_batches
+    work = n_steps * n_paths
     total = per_block * n_batches
     old = numba.get_num_threads()
     out = {}
     try:
         for nt in threads or sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(nt)
-            tk, tn, tk0, ck, cn = [], [], [], [], []
+            tk, tn, tk0, rw, rc = [], [], [], [], []
             for _ in range(repeats):
                 tk.append(_time_kernel(st, n_steps))
                 tk0.append(_time_kernel(st, n_steps, sample=False))
                 tn.append(_time_floor(st, per_block))
+                rw.append((tn[-1] / total) / (tk[-1] / work))
                 if nt == 1:
-                    ck.append(_time_kernel(st, n_steps, cpu=True))
-                    cn.append(_time_floor(st, per_block, cpu=True))
-            cpu_ratio = (min(cn) / total) / (min(ck) / (n_steps * n_paths)) if ck else None
-            out[nt] = (n_steps * n_paths / min(tk), n_steps * n_paths / min(tk0),
-                       total / min(tn), cpu_ratio)
+                    ck = _time_kernel(st, n_steps, cpu=True)
+                    cn = _time_floor(st, per_block, cpu=True)
+                    rc.append((cn / total) / (ck / work))
+            out[nt] = dict(kernel=work / min(tk), kernel_nosample=work / min(tk0),
+                           floor=total / min(tn), ratio=float(np.median(rw)),
+                           ratio_cpu=float(np.median(rc)) if rc else None)
     finally:
         numba.set_num_threads(old)
     return out
@@ -161,15 +171,17 @@ def main(argv: list[str] | None = None) -> int:
           f"{ncpu} thread(s) available, load average {os.getloadavg()[0]:.2f}")
     print("\n1. kernel rate vs the random source's normal rate "
           "(paper r=0.92, default dt, 2048 paths, 32 blocks)")
-    r = rates(path_steps=3e7 if args.quick else 1.6e8, repeats=2 if args.quick else 3)
+    r = rates(path_steps=3e7 if args.quick else 1.6e8, repeats=3 if args.quick else 5)
     print(f"   {'threads':>7} {'kernel (sampling)':>18} {'kernel (no sampling)':>21} "
           f"{'normals alone':>14} {'kernel/floor':>12}")
-    for nt, (k, k0, n, cr) in r.items():
-        extra = f"   (by CPU time: {cr:.2f})" if cr is not None else ""
-        print(f"   {nt:>7} {k:>14.3e}/s {k0:>17.3e}/s {n:>12.3e}/s {k / n:>12.2f}{extra}")
+    for nt, m in r.items():
+        extra = f"   (by CPU time: {m['ratio_cpu']:.2f})" if m["ratio_cpu"] is not None else ""
+        print(f"   {nt:>7} {m['kernel']:>14.3e}/s {m['kernel_nosample']:>17.3e}/s "
+              f"{m['floor']:>12.3e}/s {m['ratio']:>12.2f}{extra}")
+    print("   (rates: best of the repeats; kernel/floor: median of back-to-back pairs)")
     if 1 in r and ncpu > 1 and ncpu in r:
-        print(f"   speed-up on {ncpu} threads: kernel {r[ncpu][0] / r[1][0]:.2f}x, "
-              f"normals {r[ncpu][2] / r[1][2]:.2f}x   "
+        print(f"   speed-up on {ncpu} threads: kernel {r[ncpu]['kernel'] / r[1]['kernel']:.2f}x, "
+              f"normals {r[ncpu]['floor'] / r[1]['floor']:.2f}x   "
               f"(targets: kernel/floor >= 0.5 single-thread, speed-up >= 1.8)")
     if not args.skip_bias:
         print(f"\n2. bias of E[H] against dt (paper r=0.92; each run to relative SE "
