@@ -68,26 +68,31 @@ normals drawn step by step then path by path), so a seed gives
 bit-identical results for any number of threads.  Standard errors come from the
 spread between blocks (independent batches).
 
-Speed (2-core AMD EPYC VM shared with other jobs, numba 0.68, measured
-2026-11-22 at load average 1.5–2.5, so ±20 %):
+Speed (2-core AMD EPYC (Zen 3) VM shared with other jobs, numba 0.68,
+measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
+±10 %, so the benchmark pairs them, see :mod:`.benchmark`):
 
+- benchmark (``python -m fpk_vibro.montecarlo.benchmark``), one thread: kernel
+  1.34–1.55·10⁸ path-steps/s with the default sampling against 2.7–3.3·10⁸
+  normals/s drawn alone by the same generator; kernel/floor 0.51–0.53 (median
+  of back-to-back pairs; 0.46–0.54 in single runs).  Two threads: 1.84× (1.76–
+  2.25× over runs).  Per path-step, of ~6.5 ns: ~3.3 ns the normal, ~1.3 ns
+  the vectorised sweep (of which ~0.5 ns the packed square root of the
+  parametric noise), ~0.6 ns the impact paths (flag, scalar redo), ~0.5 ns
+  sampling every T0/4 (kept: sampling every T0/2 instead raises the standard
+  errors of the x and y histograms by ×1.4, measured; T0/8 lowers them by ×0.7).
+- what did not help: interleaving the normals with a 4-path scalar or
+  SLP-vectorised step (1.5–2× slower: LLVM does not vectorise across the
+  ziggurat's branch), groups of 8 in the impact scan, chunks of 128/256 paths,
+  a float32 square root (numba does not vectorise it).  What did: the SIMD
+  sweep (the former 4-lane scalar kernel ran at 0.9·10⁸/s, ratio 0.28), the
+  kick-merged state (one force evaluation per step, ~7 %), a bit mask instead
+  of a NaN scan for the impact paths (~5 %), and sampling a whole chunk per
+  call (an inlined per-sample helper taking arrays cost ~30 ns of numba
+  reference counting per sample).
 - paper r = 0.92 case to a relative SE of 0.1 % on E[H] in a fresh interpreter
-  (2048 paths, ~6400 time units): 6.9–8.7 s from import to result with a cold
-  numba cache (7.4–9.5 s wall with interpreter start), 2.6–3.1 s warm.  The
-  former ``parallel=True`` ``prange`` dispatch took 17.5–17.8 s cold in the same
-  conditions: the parfor made numba re-optimise the whole block function
-  (~16 s of compile CPU, now ~6 s).  Results are bit-identical to it.
-- benchmark, one thread: kernel 0.9–1.0·10⁸ path-steps/s, normals alone
-  3.3·10⁸/s, ratio 0.28–0.29 (also by thread CPU time; target 0.5 not
-  reached).  The old parfor dispatch measured the normals alone at only
-  ~2.0·10⁸/s for a kernel rate of ~0.8·10⁸/s (hence its 0.37–0.45).  Two
-  threads: 1.7–2.0× (noisy; 1.86× for the old dispatch in the same
-  conditions).  Per path-step the kernel is bound by the step's dependency
-  chains and instruction count: the square root of the parametric noise costs
-  ~20 % and the barrier tests ~20 % (one test per flight against bounds that
-  are ±inf where there is no barrier); interleaving the lanes stage by stage,
-  8 or 12 lanes, or drawing a lane group's normals in one batch did not
-  measurably help, and LLVM does not vectorise the lanes (no packed sqrt).
+  (2048 paths, ~5000 time units): 6.2–6.4 s from import to result with a cold
+  numba cache (6.9–7.1 s wall with interpreter start), 2.0–2.4 s warm.
 """
 from ._engine import TransientRun, stationary, transient
 from .solution import QUANTITIES, MonteCarloSolution
