@@ -101,3 +101,4 @@ def test_benchmark_rates_report_every_figure():
         for key in ("kernel", "kernel_nosample", "floor", "ratio"):
             assert math.isfinite(m[key]) and m[key] > 0, (nt, key, m[key])
     assert r[1]["ratio_cpu"] > 0 and r[2]["ratio_cpu"] is None
+    assert r[1]["speedup"] == 1.0 and r[2]["speedup"] > 0
