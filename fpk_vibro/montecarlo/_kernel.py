@@ -240,7 +240,7 @@ CHUNK = 64
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def _smooth_sweep(xa, va, xb, vb, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has_d2,
+def _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has_d2,
                   lo_t, hi_t):
     """One step of n paths from (xa, va) into (xb, vb), assuming no impact.
 
@@ -249,13 +249,17 @@ def _smooth_sweep(xa, va, xb, vb, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has_d2,
     and the opening kick of the next are one kick v + h F(x) (``ha`` = h a,
     ``hb`` = h b) and the force is evaluated once per step.
 
-    Branch-free, so the compiler vectorises it (SIMD over paths).  Returns the
-    bit mask of the paths where the assumption fails (a flight leaves
-    [lo_t, hi_t], or a NaN; bit j for path j, n ≤ 64): :func:`_run_block` redoes
-    them with the exact :func:`_step` from (xa, va), which this sweep leaves
-    untouched (it writes into separate arrays).
+    Branch-free, so the compiler vectorises it (SIMD over paths).  Returns two
+    bit masks (bit j for path j, n ≤ 64) of the paths where the assumption
+    fails: ``bad1``, the first flight left [lo_t, hi_t] (or a NaN), and
+    ``bad2``, only the second did.  :func:`_run_block` redoes the former with
+    the exact :func:`_step` from (xa, va), which this sweep leaves untouched (it
+    writes into separate arrays), and the latter from the midpoint it stores,
+    x1 in ``xm`` and the velocity after the O step in ``vb``, by the second
+    flight alone.
     """
-    bad = 0
+    bad1 = 0
+    bad2 = 0
     for j in range(n):
         x = xa[j]
         y1 = va[j] - (ha + hb * x * x) * x
@@ -265,11 +269,14 @@ def _smooth_sweep(xa, va, xb, vb, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has_d2,
         else:
             y2 = ec * y1 + sd0 * z[j]
         x2 = x1 + hh * y2
-        ok = (x1 >= lo_t) & (x1 <= hi_t) & (x2 >= lo_t) & (x2 <= hi_t)
+        ok1 = (x1 >= lo_t) & (x1 <= hi_t)
+        ok2 = (x2 >= lo_t) & (x2 <= hi_t)
         xb[j] = x2
         vb[j] = y2
-        bad |= (0 if ok else 1) << j
-    return bad
+        xm[j] = x1
+        bad1 |= (0 if ok1 else 1) << j
+        bad2 |= (0 if ok2 or not ok1 else 1) << j
+    return bad1, bad2
 
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
@@ -312,6 +319,7 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     va = np.empty(CHUNK)
     xb = np.empty(CHUNK)
     vb = np.empty(CHUNK)
+    xm = np.empty(CHUNK)
     z = np.empty(CHUNK)
     end = starts[b + 1]
     for i0 in range(starts[b], end, CHUNK):
@@ -324,11 +332,19 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         for k in range(n_steps):
             for j in range(n):
                 z[j], s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
-            bad = _smooth_sweep(xa, va, xb, vb, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2,
-                                has_d2, lo_t, hi_t)
-            while bad != 0:                 # the paths with an impact (or a NaN)
-                j = trailing_zeros(bad)
-                bad &= bad - 1
+            bad1, bad2 = _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0,
+                                       d1s2, d2s2, has_d2, lo_t, hi_t)
+            while bad2 != 0:                # an impact in the second flight only
+                j = trailing_zeros(bad2)
+                bad2 &= bad2 - 1
+                x, y, m = _flight(xm[j], vb[j], hh, 0.0, lo, hi, flo, fhi, r, mode, maxk,
+                                  lo_t, hi_t)
+                xb[j] = x
+                vb[j] = y
+                nimp += m
+            while bad1 != 0:                # in the first flight (or a NaN): whole step
+                j = trailing_zeros(bad1)
+                bad1 &= bad1 - 1
                 x = xa[j]
                 f = -(a + bcub * x * x) * x
                 x, y, f, m = _step(x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2,
