@@ -275,8 +275,8 @@ def _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has
         vb[j] = y2
         xm[j] = x1
         bad1 |= (0 if ok1 else 1) << j
-        bad2 |= (0 if ok2 or not ok1 else 1) << j
-    return bad1, bad2
+        bad2 |= (0 if ok2 else 1) << j
+    return bad1, bad2 & ~bad1
 
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)

@@ -180,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{ncpu} thread(s) available, load average {os.getloadavg()[0]:.2f}")
     print("\n1. kernel rate vs the random source's normal rate "
           "(paper r=0.92, default dt, 2048 paths, 32 blocks)")
-    r = rates(path_steps=3e7 if args.quick else 1.6e8, repeats=3 if args.quick else 5)
+    r = rates(path_steps=3e7 if args.quick else 8e7, repeats=3 if args.quick else 9)
     print(f"   {'threads':>7} {'kernel (sampling)':>18} {'kernel (no sampling)':>21} "
           f"{'normals alone':>14} {'kernel/floor':>12}")
     for nt, m in r.items():
