@@ -70,29 +70,32 @@ spread between blocks (independent batches).
 
 Speed (2-core AMD EPYC (Zen 3) VM shared with other jobs, numba 0.68,
 measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
-±10 %, so the benchmark pairs them, see :mod:`.benchmark`):
+±10 % or more, so the benchmark pairs them, see :mod:`.benchmark`):
 
 - benchmark (``python -m fpk_vibro.montecarlo.benchmark``), one thread: kernel
-  1.34–1.55·10⁸ path-steps/s with the default sampling against 2.7–3.3·10⁸
-  normals/s drawn alone by the same generator; kernel/floor 0.51–0.53 (median
-  of back-to-back pairs; 0.46–0.54 in single runs).  Two threads: 1.84× (1.76–
-  2.25× over runs).  Per path-step, of ~6.5 ns: ~3.3 ns the normal, ~1.3 ns
-  the vectorised sweep (of which ~0.5 ns the packed square root of the
-  parametric noise), ~0.6 ns the impact paths (flag, scalar redo), ~0.5 ns
-  sampling every T0/4 (kept: sampling every T0/2 instead raises the standard
-  errors of the x and y histograms by ×1.4, measured; T0/8 lowers them by ×0.7).
-- what did not help: interleaving the normals with a 4-path scalar or
-  SLP-vectorised step (1.5–2× slower: LLVM does not vectorise across the
-  ziggurat's branch), groups of 8 in the impact scan, chunks of 128/256 paths,
-  a float32 square root (numba does not vectorise it).  What did: the SIMD
-  sweep (the former 4-lane scalar kernel ran at 0.9·10⁸/s, ratio 0.28), the
-  kick-merged state (one force evaluation per step, ~7 %), a bit mask instead
-  of a NaN scan for the impact paths (~5 %), and sampling a whole chunk per
-  call (an inlined per-sample helper taking arrays cost ~30 ns of numba
-  reference counting per sample).
+  1.46–1.65·10⁸ path-steps/s with the default sampling (1.61–1.84·10⁸ without)
+  against 2.9–3.3·10⁸ normals/s drawn alone by the same generator;
+  kernel/floor 0.53–0.55 by wall time and 0.51–0.54 by the thread's CPU time
+  (medians of 9 back-to-back pairs, over four runs).  Two threads: 1.73–1.90×
+  one thread (median of pairs; it depends on the other jobs' load).
+- cost per path-step relative to the normal alone (paired runs with parts
+  switched off): the square root of the parametric noise ~9 %, sampling every
+  T0/4 ~6 %, the impact paths ~3 %; the rest is the sweep's arithmetic and
+  loads/stores.  Sampling every T0/4 is kept: every T0/2 raises the standard
+  errors of the x and y histograms by ×1.4 (measured; T0/8 lowers them ×0.7).
+- what helped (from the former 4-lane scalar kernel, 0.9·10⁸/s, ratio 0.28):
+  the SIMD sweep; sampling a whole chunk per call (an inlined per-sample helper
+  taking arrays cost ~30 ns of numba reference counting per sample); the
+  kick-merged state (one force evaluation per step, ~7 %); bit masks instead of
+  a NaN scan for the impact paths, and finishing the paths whose impact falls
+  in the second flight from the stored midpoint (together ~8 %).  What did not:
+  interleaving the normals with a 4-path scalar or SLP-vectorised step (1.5–2×
+  slower: LLVM does not vectorise across the ziggurat's branch), chunks of
+  128/256 paths, integer histogram counts, a float32 square root (numba does
+  not vectorise it).
 - paper r = 0.92 case to a relative SE of 0.1 % on E[H] in a fresh interpreter
-  (2048 paths, ~5000 time units): 6.2–6.4 s from import to result with a cold
-  numba cache (6.9–7.1 s wall with interpreter start), 2.0–2.4 s warm.
+  (2048 paths, ~4000–5000 time units): 6.2–7.5 s from import to result with a
+  cold numba cache (6.9–8.3 s wall with interpreter start), 1.9–2.4 s warm.
 """
 from ._engine import TransientRun, stationary, transient
 from .solution import QUANTITIES, MonteCarloSolution
