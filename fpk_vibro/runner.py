@@ -73,7 +73,8 @@ def _solve(method: str, system: VibroImpactSystem, scene: Scene) -> Any:
         if scene.transient:
             kw.update({k: v for k, v in num.items() if k in ("dt", "scheme", "theta")})
             kw.pop("solver", None)
-            kw.pop("positivity", None)
+            if not kw.get("positivity"):
+                kw.pop("positivity", None)
             return fem.transient(system, initial=scene.initial, times=scene.times, **kw)
         return fem.stationary(system, **kw)
     raise ValueError(f"unknown method {method!r}")

@@ -144,10 +144,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "y_max": Key(_num(0.0, lo_open=True), None, doc="velocity truncation: y in (−y_max, y_max) (m/s); default: Gibbs-tail rule"),
         "degree": Key(_num(1, 2, integer=True), 1, doc="1 (Q1) or 2 (Q2)"),
         "solver": Key(_choice(("auto", "direct", "amg")), "auto", doc="linear solver"),
-        "positivity": Key(_bool, None, doc="positivity-preserving discretisation, degree 1 (default false: Galerkin)"),
+        "positivity": Key(_bool, None, doc="positivity-preserving discretisation, degree 1 (default false: Galerkin); transient: implicit Euler, first order"),
         "mesh": Key(_string, None, doc="a mesh file of the strip (meshio format), relative to the scene"),
         "dt": Key(_num(0.0, lo_open=True), None, doc="time step (s), transient"),
-        "scheme": Key(_choice(("bdf2", "theta")), "bdf2", doc="time scheme, transient"),
+        "scheme": Key(_choice(("bdf2", "theta", "euler")), None, doc="time scheme, transient (default: bdf2; euler, the only one allowed, with positivity)"),
         "theta": Key(_num(0.5, 1.0), 0.5, doc="θ of the θ-scheme (1/2 Crank–Nicolson, 1 implicit Euler)"),
     },
     "montecarlo": {
@@ -280,6 +280,12 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                                    barriers=bar["sides"])
     except ValueError as exc:
         raise SceneError(_scene_key_of(str(exc)) + str(exc).replace("VibroImpactSystem: ", "")) from None
+    fem_ = clean["fem"]
+    if fem_["positivity"] and (fem_["scheme"] == "bdf2" or
+                               (fem_["scheme"] == "theta" and fem_["theta"] != 1)):
+        raise SceneError(f"fem.scheme: positivity = true needs implicit Euler (scheme = "
+                         f"'euler', or 'theta' with theta = 1); got scheme = "
+                         f"{fem_['scheme']!r}, theta = {fem_['theta']}")
     sweep = {k: v for k, v in clean["sweep"].items() if v is not None}
     if len(sweep) > 2:
         raise SceneError(f"sweep: at most two parameters; got {sorted(sweep)}")

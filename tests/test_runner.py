@@ -115,3 +115,21 @@ def test_sweep_on_a_dask_cluster(tmp_path):
     E = [p["methods"]["averaging"]["moments"] for p in doc["points"]]
     assert [p["parameters"]["r"] for p in doc["points"]] == [0.5, 0.92, 1.0]
     assert E[0]["E_H"] < E[1]["E_H"] < E[2]["E_H"]
+
+
+def test_positive_fem_transient_scene(tmp_path):
+    """fem.positivity reaches the FE transient (it used to be dropped there)."""
+    from fpk_vibro.runner import _solve
+    from fpk_vibro.scenes import parse_scene
+
+    scene = parse_scene({
+        "system": dict(a=1.0, b=0.2, c=0.025, D1=0.01, D2=0.01),
+        "barriers": dict(delta=0.6, r=0.92),
+        "study": dict(methods=["fem"], quantities=["moments"], times=[1.0, 2.0]),
+        "initial": dict(mean=[0.0, 1.0], std=[0.0, 0.05]),
+        "fem": dict(nx=16, positivity=True, dt=0.05)})
+    sols = _solve("fem", scene.system, scene)
+    assert [s.time for s in sols] == [1.0, 2.0]
+    for s in sols:
+        assert s.info["positivity"] is True and s.info["scheme"] == "theta"
+        assert s.min_density >= -1e-14 * s.dofs.max() and abs(s.mass - 1) < 1e-12

@@ -103,3 +103,13 @@ def test_parse_scene_dict():
     with pytest.raises(SceneError, match="barriers.r"):
         parse_scene({"system": dict(a=1, b=0, c=0.1, D1=0.1), "barriers": dict(delta=1, r=-1),
                      "study": dict(methods=["averaging"])})
+
+
+def test_positive_transient_needs_implicit_euler():
+    base = {"system": dict(a=1, b=0, c=0.1, D1=0.1), "barriers": dict(delta=1, r=0.9),
+            "study": dict(methods=["fem"])}
+    with pytest.raises(SceneError, match="fem.scheme"):
+        parse_scene({**base, "fem": dict(positivity=True, scheme="bdf2")})
+    with pytest.raises(SceneError, match="fem.scheme"):
+        parse_scene({**base, "fem": dict(positivity=True, scheme="theta", theta=0.5)})
+    assert parse_scene({**base, "fem": dict(positivity=True, scheme="euler")})

@@ -7,6 +7,19 @@ Same generator L and mass matrix M as :func:`fpk_vibro.fem.stationary`.  Schemes
   ((1+2ω)/(1+ω) M − dt_n L) pⁿ⁺¹ = M((1+ω) pⁿ − ω²/(1+ω) pⁿ⁻¹).
 - ``"theta"``: (M − θ dt L) pⁿ⁺¹ = (M + (1−θ) dt L) pⁿ; θ = 1 implicit Euler,
   θ = ½ Crank–Nicolson (stable but undamped at large dt, DESIGN §3).
+- ``"euler"``: implicit Euler (the θ-scheme with θ = 1).
+
+``positivity`` (degree 1 on the structured quad mesh): L is replaced by the
+positive tensor-grid generator A of :mod:`fpk_vibro.fem.positivity` (part A,
+off-diagonals ≥ 0, column sums 0) and M by the lumped dual-cell masses
+diag(m), and the scheme is implicit Euler: diag(m) − dt A is then an M-matrix
+(non-positive off-diagonals, columns diagonally dominant), so its inverse is
+non-negative and pⁿ⁺¹ ≥ 0 for any dt, with ∫p = mᵀp kept exactly.  BDF2 and
+θ < 1 have no such property.  ``"first-order"`` uses A with unit flux factors
+(one LU per step size); ``True``/``"quick"``/``"van-albada"`` take the clipped
+high-order flux factors g(pⁿ) of part B from the previous step (linearly
+implicit: one LU per step, still a generator for any g ≥ 0).  Both are first
+order in time.
 
 Because 1ᵀL = 0, every scheme keeps ∫p = 1ᵀM p exactly (to the round-off of the
 sparse LU solves).  Each distinct matrix is factorised once (SuperLU) and reused.
@@ -32,7 +45,9 @@ from .solution import FEMSolution
 
 __all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
 
-SCHEMES = ("bdf2", "theta")
+SCHEMES = ("bdf2", "theta", "euler")
+#: ``positivity`` values of the transient (those of the tensor-grid generator).
+POSITIVITY = (True, "quick", "van-albada", "first-order")
 #: Local L1 error per step of the adaptive default (``dt`` and ``tol`` not given).
 DEFAULT_TOL = 1e-5
 
@@ -42,10 +57,22 @@ class Discretisation:
 
     def __init__(self, system: VibroImpactSystem, mesh: skfem.Mesh, degree: int,
                  L: sp.csr_matrix, M: sp.csr_matrix, unit: np.ndarray, order: np.ndarray | None,
-                 tensor: tuple[np.ndarray, np.ndarray] | None, points: np.ndarray) -> None:
+                 tensor: tuple[np.ndarray, np.ndarray] | None, points: np.ndarray,
+                 positivity: bool | str = False, walls: Any = None) -> None:
         self.system, self.mesh, self.degree = system, mesh, degree
         self.L, self.M, self.unit = L, M, unit
         self.order, self.tensor, self.points = order, tensor, points
+        #: False, or the positive generator's variant (L, M are then A, diag(m))
+        self.positivity, self.walls = positivity, walls
+
+    def limited_generator(self, p: np.ndarray) -> sp.csr_matrix:
+        """A(g(p)): the positive generator with the high-order flux factors of p
+        (module docstring; only for ``positivity`` other than "first-order")."""
+        from .positivity import limiter_factors, positive_generator
+        xs, ys = self.tensor
+        scheme = "van-albada" if self.positivity == "van-albada" else "quick"
+        gx, gy = limiter_factors(p.reshape(xs.size, ys.size), xs, ys, self.system, scheme)
+        return positive_generator(self.system, xs, ys, self.walls, gx, gy)[0]
 
     def solution(self, p: np.ndarray, **info: Any) -> FEMSolution:
         dofs = p if self.order is None else p[self.order]
@@ -55,12 +82,25 @@ class Discretisation:
 
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
-               element: str = "quad", grading: float = 0.0) -> Discretisation:
-    """Build the mesh and assemble (L, M) exactly as :func:`stationary` does."""
+               element: str = "quad", grading: float = 0.0,
+               positivity: bool | str = False) -> Discretisation:
+    """Build the mesh and assemble (L, M) exactly as :func:`stationary` does; with
+    ``positivity`` (see the module docstring) the positive generator and the
+    lumped masses instead."""
     from . import _validate, default_mesh
-    _validate(system, mesh, nx, ny, y_max, degree, "auto", element, grading, False, "auto")
+    if not (positivity is False or positivity in POSITIVITY):
+        raise ValueError(f"fem.transient: positivity must be False, True or one of "
+                         f"{POSITIVITY[1:]}; got {positivity!r}")
+    _validate(system, mesh, nx, ny, y_max, degree, "auto", element, grading, positivity,
+              "auto")
     if mesh is None:
         dom, m, xs, ys = default_mesh(system, nx, ny, y_max, degree, element, grading)
+        if positivity:
+            from .positivity import positive_generator
+            A, unit = positive_generator(system, xs, ys, dom.walls)
+            pts = np.stack(np.meshgrid(xs, ys, indexing="ij")).reshape(2, -1)
+            return Discretisation(system, m, 1, A.tocsr(), sp.diags(unit).tocsr(), unit,
+                                  None, (xs, ys), pts, positivity, dom.walls)
         if element == "quad":
             op = assemble_tensor(system, xs, ys, degree, dom)
             order = None
@@ -111,10 +151,11 @@ def default_dt(system: VibroImpactSystem) -> float:
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
-              dt: float | None = None, scheme: str = "bdf2", nx: int | None = None,
+              dt: float | None = None, scheme: str | None = None, nx: int | None = None,
               ny: int | None = None, degree: int = 1, mesh=None, y_max: float | None = None,
               theta: float = 0.5, tol: float | None = None, progress: bool | None = None,
-              discretisation: Discretisation | None = None) -> list[FEMSolution]:
+              discretisation: Discretisation | None = None,
+              positivity: bool | str = False) -> list[FEMSolution]:
     """Densities at ``times`` from ``initial`` (DESIGN §3 transient).
 
     Parameters
@@ -131,8 +172,11 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         Fixed steps: the largest time step; each interval between output times is
         split into equal steps so every time is hit exactly.  Not given (and no
         ``tol``): adaptive BDF2 steps with ``tol = DEFAULT_TOL`` (1e-5) and at most
-        :func:`default_dt` — a narrow initial packet needs small steps at first.
-    scheme : {"bdf2", "theta"}
+        :func:`default_dt` — a narrow initial packet needs small steps at first;
+        with ``positivity``, fixed steps of :func:`default_dt`.
+    scheme : {"bdf2", "theta", "euler"}, optional
+        Default "bdf2"; with ``positivity`` only "euler" (or "theta" with θ = 1),
+        which is the default then.
     nx, ny, degree, mesh, y_max
         As in :func:`fpk_vibro.fem.stationary`.
     theta : float
@@ -147,7 +191,14 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         A progress line on stderr (default: when stderr is a terminal and the run
         has more than 2000 steps).
     discretisation : Discretisation, optional
-        Reuse an assembled mesh and operator (then nx, ny, ... are ignored).
+        Reuse an assembled mesh and operator (then nx, ny, ... and
+        ``positivity`` come from it; :func:`discretise`).
+    positivity : bool or {"quick", "van-albada", "first-order"}
+        Non-negative densities for any dt by the positive generator and implicit
+        Euler (module docstring); degree 1 on the default structured mesh.
+        Default False: the Galerkin L of :func:`fpk_vibro.fem.stationary`, which
+        undershoots where a narrow packet is under-resolved (−19 % of max p at
+        t = 1 on nx = 24, measured).
 
     Returns
     -------
@@ -157,10 +208,30 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         ``info``.
     """
     t_out = parse_times(times, "fem.transient")
+    if discretisation is not None:
+        if positivity and positivity != discretisation.positivity:
+            raise ValueError(f"fem.transient: positivity={positivity!r} differs from the "
+                             f"discretisation's ({discretisation.positivity!r}); build it "
+                             "with discretise(..., positivity=...)")
+        positivity = discretisation.positivity
+    elif not (positivity is False or positivity in POSITIVITY):
+        raise ValueError(f"fem.transient: positivity must be False, True or one of "
+                         f"{POSITIVITY[1:]}; got {positivity!r}")
+    if scheme is None:
+        scheme = "euler" if positivity else "bdf2"
     if scheme not in SCHEMES:
         raise ValueError(f"fem.transient: scheme must be one of {SCHEMES}; got {scheme!r}")
     if isinstance(theta, bool) or not isinstance(theta, (int, float)) or not 0.5 <= theta <= 1:
         raise ValueError(f"fem.transient: theta must be in [0.5, 1]; got {theta!r}")
+    if scheme == "euler":
+        scheme, theta = "theta", 1.0
+    if positivity and (scheme != "theta" or theta != 1):
+        raise ValueError(f"fem.transient: positivity needs implicit Euler (scheme='euler'); "
+                         f"got scheme={scheme!r}, theta={theta!r} — BDF2 and θ < 1 do not "
+                         "keep p >= 0")
+    if positivity and tol is not None:
+        raise ValueError("fem.transient: tol (adaptive BDF2 steps) cannot be combined with "
+                         "positivity (implicit Euler, fixed steps)")
     if tol is not None:
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-14 <= tol <= 1:
             raise ValueError(f"fem.transient: tol must be a number in [1e-14, 1]; got {tol!r}")
@@ -173,16 +244,25 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     elif isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"fem.transient: dt must be a finite number > 0; got {dt!r}")
     disc = discretisation or discretise(system, mesh=mesh, nx=nx, ny=ny, y_max=y_max,
-                                        degree=degree)
+                                        degree=degree, positivity=positivity)
     p = _initial_vector(disc, initial)
     M, L = disc.M.tocsc(), disc.L.tocsc()
     lu_cache: dict[tuple[float, float], Any] = {}
+    limited = positivity not in (False, "first-order")
 
     def solve(a0: float, h: float, rhs: np.ndarray) -> np.ndarray:
         key = (round(a0, 14), round(h, 14))
         if key not in lu_cache:
             lu_cache[key] = spla.splu((a0 * M - h * L).tocsc(), permc_spec="COLAMD")
         return lu_cache[key].solve(rhs)
+
+    def step(p: np.ndarray, p_prev: np.ndarray | None, h: float, h_prev: float | None):
+        if limited:      # flux factors of pⁿ: a new generator, one LU per step
+            A = disc.limited_generator(p)
+            return spla.splu((M - h * A).tocsc(), permc_spec="COLAMD").solve(M @ p)
+        if scheme == "theta":
+            return solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
+        return _bdf2(solve, M, p, p_prev, h, h_prev)
 
     if tol is not None:
         return _march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache)
@@ -196,17 +276,15 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             n = int(math.ceil(span / dt - 1e-9)) if span > 0 else 0
             h = span / n if n else 0.0
             for _ in range(n):
-                if scheme == "theta":
-                    p_new = solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
-                else:
-                    p_new = _bdf2(solve, M, p, p_prev, h, h_prev)
+                p_new = step(p, p_prev, h, h_prev)
                 p_prev, p, h_prev = p, p_new, h
                 steps += 1
                 if show and steps % 200 == 0:
                     print(f"\rfem.transient: step {steps}/{n_total}  t = {t_now + h:.4g}",
                           end="", file=sys.stderr)
             t_now = float(t_target)
-            out.append(_snapshot(disc, p, t_now, steps=steps, scheme=scheme, dt=h or dt))
+            out.append(_snapshot(disc, p, t_now, steps=steps, scheme=scheme, dt=h or dt,
+                                 positivity=positivity))
     except KeyboardInterrupt:
         _mark_partial(out, t_now)
     finally:
