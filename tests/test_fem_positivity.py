@@ -13,9 +13,9 @@ from fpk_vibro import VibroImpactSystem
 from fpk_vibro.exact import gibbs
 from fpk_vibro.fem import assemble_tensor, domain, stationary
 from fpk_vibro.fem.mesh import axis_nodes
-from fpk_vibro.fem.positivity import (discrete_upwinding, dual_weights, limiter_factors,
-                                      positive_generator, stationary_positive,
-                                      wall_injection)
+from fpk_vibro.fem.afc import discrete_upwinding
+from fpk_vibro.fem.positivity import (dual_weights, limiter_factors, positive_generator,
+                                      stationary_positive, wall_injection)
 
 HARD = [VibroImpactSystem.paper(r=r, D1=0.002, D2=0.0) for r in (0.0, 0.1, 0.3)]
 GEOM = [VibroImpactSystem.paper(r=0.5, D2=0.0, delta=d) for d in (0.1, 3.0)]

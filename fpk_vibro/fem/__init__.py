@@ -174,7 +174,8 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     grading : float
         ≥ 0: cluster the y-nodes towards y = 0 (sinh map).
     positivity : bool or {"quick", "van-albada", "first-order", "upwind", "afc"}
-        :mod:`fpk_vibro.fem.positivity`, degree 1 only (nodal Q1 density).
+        :mod:`fpk_vibro.fem.positivity` (the first three) and
+        :mod:`fpk_vibro.fem.afc`, degree 1 only (nodal Q1 density).
         ``True``/``"quick"``: the positive tensor-grid generator (Scharfetter–
         Gummel for the dissipative y part, upwind fluxes for the Hamiltonian
         transport, conservative lumped walls) with QUICK face values whose flux
@@ -231,7 +232,7 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
             system, tensor[0], tensor[1], dom.walls, limit=positivity != "first-order",
             scheme="van-albada" if positivity == "van-albada" else "quick")
     elif positivity:
-        from .positivity import stationary_afc
+        from .afc import stationary_afc
         p, sinfo, afc_info = stationary_afc(L, Mmat, unit, solver=solver, grid=ranks,
                                             limit=positivity != "upwind")
     else:

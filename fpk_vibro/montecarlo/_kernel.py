@@ -4,10 +4,8 @@ Random numbers (:mod:`._rng`): one xoshiro256+ stream per block of paths
 (seeded from ``numpy.random.SeedSequence.spawn``), standard normals by the
 ziggurat method.  A block is simulated by one thread, in a fixed order, by
 the same compiled code whatever the number of threads, so the results do not
-depend on it.  The blocks are shared out to a ``concurrent.futures`` thread
-pool (:func:`run_blocks`; :func:`_run_block` is compiled ``nogil``) rather
-than a numba ``prange``: a ``parallel=True`` wrapper made numba re-optimise
-the whole block function inside the parfor (~7 s of a cold-cache compile).
+depend on it.  The blocks are shared out to a thread pool
+(:func:`._threads.run_blocks`; :func:`_run_block` is compiled ``nogil``).
 
 The step (BAOAB splitting, see :mod:`fpk_vibro.montecarlo` for the argument)::
 
@@ -32,16 +30,14 @@ the ``P_*`` / ``I_*`` indices below.
 from __future__ import annotations
 
 import math
-import threading
-from concurrent.futures import ThreadPoolExecutor, wait
 
-import numba
 import numpy as np
 from numba import njit
 
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from ._rng import FASTMATH, _floor_block, _normal
+from ._threads import run_blocks
 
 # float parameters
 P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD = range(11)
@@ -369,47 +365,6 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     rng[b, 1] = s1
     rng[b, 2] = s2
     rng[b, 3] = s3
-
-
-_POOL: dict[int, ThreadPoolExecutor] = {}
-_POOL_LOCK = threading.Lock()
-
-
-def _pool(n: int) -> ThreadPoolExecutor:
-    with _POOL_LOCK:
-        pool = _POOL.get(n)
-        if pool is None:
-            pool = _POOL[n] = ThreadPoolExecutor(max_workers=n,
-                                                 thread_name_prefix="fpk-mc")
-        return pool
-
-
-def n_threads(threads: int | None = None) -> int:
-    """The worker count: ``threads`` or :func:`numba.get_num_threads`."""
-    return max(1, int(numba.get_num_threads() if threads is None else threads))
-
-
-def run_blocks(fn, n_blocks: int, args: tuple, threads: int | None = None) -> list:
-    """``[fn(b, *args) for b in range(n_blocks)]`` with the blocks shared out to
-    ``threads`` workers (``fn`` compiled ``nogil``; blocks write disjoint data).
-
-    Each block is computed by the same compiled code from its own random stream
-    whatever the number of threads, so results are bit-identical.  Blocks are
-    handed out one at a time (dynamic load balance).  On Ctrl-C no further block
-    starts and the running ones are finished before the interrupt propagates, so
-    every block's state stays consistent.
-    """
-    nt = min(n_threads(threads), n_blocks)
-    if nt <= 1:
-        return [fn(b, *args) for b in range(n_blocks)]
-    futs = [_pool(nt).submit(fn, b, *args) for b in range(n_blocks)]
-    try:
-        return [f.result() for f in futs]
-    except BaseException:
-        for f in futs:
-            f.cancel()
-        wait(futs)
-        raise
 
 
 def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
