@@ -12,15 +12,14 @@ from typing import Any
 
 import numpy as np
 
+from .._checks import check_int
 from ..model import VibroImpactSystem
 from ..orbits import energy_loss, orbit_nodes, require_single_well
 
 __all__ = ["coefficients"]
 
 def _check_int(name: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"averaging: {name} must be an integer in [{lo}, {hi}]; got {value!r}")
-    return int(value)
+    return check_int(name, value, lo, hi, where="averaging")
 
 
 def coefficients(system: VibroImpactSystem, H: np.ndarray, *, n_theta: int = 48

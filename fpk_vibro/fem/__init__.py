@@ -39,13 +39,13 @@ Measured (exact case r = 1, D2 = 0, paper a, b, c, D1, Δ; ny = 4 nx)
 """
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
 import numpy as np
 import skfem
 
+from .._checks import check_float, check_int
 from ..model import VibroImpactSystem
 from .generator import (assemble, assemble_tensor, element_for, mesh_domain,
                        quadrature_order, tensor_index)
@@ -65,8 +65,7 @@ DEFAULT_NX = {1: 128, 2: 48}
 
 
 def _int_param(name: str, value, minimum: int, even: bool = False) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}")
+    check_int(name, value, minimum)
     if even and value % 2:
         raise ValueError(f"{name} must be even (y = 0 must be a mesh line); got {value!r}")
     return int(value)
@@ -90,9 +89,7 @@ def _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
     if positivity and degree != 1:
         raise ValueError("positivity=True needs degree=1 (Q1/P1 basis functions are "
                          "non-negative; Q2/P2 are not)")
-    if isinstance(grading, bool) or not isinstance(grading, (int, float)) \
-            or not math.isfinite(grading) or grading < 0:
-        raise ValueError(f"grading must be a finite number >= 0; got {grading!r}")
+    check_float("grading", grading, 0.0, lo_open=False)
     if mesh is not None:
         if not isinstance(mesh, (skfem.Mesh, str, Path)):
             raise ValueError(f"mesh must be a skfem.Mesh or a path; got {type(mesh).__name__}")
@@ -113,9 +110,7 @@ def _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
     if ny is not None:
         _int_param("ny", ny, 2, even=True)
     if y_max is not None:
-        if isinstance(y_max, bool) or not isinstance(y_max, (int, float, np.floating)) \
-                or not math.isfinite(y_max) or y_max <= 0:
-            raise ValueError(f"y_max must be a finite number > 0; got {y_max!r}")
+        check_float("y_max", y_max, 0.0)
     elif system.c == 0:
         raise ValueError("y_max must be given when c = 0 (no Gibbs tail bound; "
                          "all dissipation comes from impacts)")

@@ -130,6 +130,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
+from .._checks import check_float, check_int
 from .solve import SolveInfo
 
 __all__ = ["bernoulli", "dual_weights", "wall_injection", "positive_generator",
@@ -375,11 +376,9 @@ def stationary_positive(system, xnodes: np.ndarray, ynodes: np.ndarray, walls, *
     from .solve import solve_stationary
     if scheme not in SCHEMES:
         raise ValueError(f"scheme must be one of {SCHEMES}; got {scheme!r}")
-    if not (isinstance(tol, (int, float)) and 0 < tol < 1):
-        raise ValueError(f"tol must be a number in (0, 1); got {tol!r}")
-    for name, v, lo in (("maxiter", maxiter, 1), ("anderson", anderson, 0)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-            raise ValueError(f"{name} must be an integer >= {lo}; got {v!r}")
+    check_float("tol", tol, 0.0, 1.0, hi_open=True)
+    check_int("maxiter", maxiter, 1)
+    check_int("anderson", anderson, 0)
     t0 = time.perf_counter()
     xn, yn = np.asarray(xnodes, float), np.asarray(ynodes, float)
     shape = (xn.size, yn.size)

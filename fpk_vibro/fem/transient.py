@@ -36,6 +36,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import skfem
 
+from .._checks import check_float
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from ..solution import Solution
@@ -221,8 +222,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         scheme = "euler" if positivity else "bdf2"
     if scheme not in SCHEMES:
         raise ValueError(f"fem.transient: scheme must be one of {SCHEMES}; got {scheme!r}")
-    if isinstance(theta, bool) or not isinstance(theta, (int, float)) or not 0.5 <= theta <= 1:
-        raise ValueError(f"fem.transient: theta must be in [0.5, 1]; got {theta!r}")
+    check_float("theta", theta, 0.5, 1.0, lo_open=False, where="fem.transient")
     if scheme == "euler":
         scheme, theta = "theta", 1.0
     if positivity and (scheme != "theta" or theta != 1):
@@ -233,16 +233,15 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         raise ValueError("fem.transient: tol (adaptive BDF2 steps) cannot be combined with "
                          "positivity (implicit Euler, fixed steps)")
     if tol is not None:
-        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-14 <= tol <= 1:
-            raise ValueError(f"fem.transient: tol must be a number in [1e-14, 1]; got {tol!r}")
+        check_float("tol", tol, 1e-14, 1.0, lo_open=False, where="fem.transient")
         if scheme != "bdf2":
             raise ValueError("fem.transient: tol (adaptive steps) needs scheme='bdf2'")
     if dt is None:
         dt = default_dt(system)
         if tol is None and scheme == "bdf2":
             tol = DEFAULT_TOL          # no step given: adaptive steps by default
-    elif isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"fem.transient: dt must be a finite number > 0; got {dt!r}")
+    else:
+        check_float("dt", dt, 0.0, where="fem.transient")
     disc = discretisation or discretise(system, mesh=mesh, nx=nx, ny=ny, y_max=y_max,
                                         degree=degree, positivity=positivity)
     p = _initial_vector(disc, initial)

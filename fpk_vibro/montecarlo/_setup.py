@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _checks
 from ..model import VibroImpactSystem
 from . import _kernel as K
 from .solution import QUANTITIES
@@ -21,26 +22,13 @@ def fail(func: str, name: str, allowed: str, value: Any) -> ValueError:
 
 
 def check_int(func: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise fail(func, name, f"an integer >= {lo}", value)
-    if value < lo or (hi is not None and value > hi):
-        raise fail(func, name, f"an integer in [{lo}, {hi}]" if hi is not None
-                   else f"an integer >= {lo}", value)
-    return int(value)
+    return _checks.check_int(name, value, lo, hi, where=f"montecarlo.{func}")
 
 
 def check_float(func: str, name: str, value: Any, lo: float, hi: float = math.inf,
                 lo_open: bool = True, hi_open: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise fail(func, name, "a real number", value)
-    v = float(value)
-    ok = math.isfinite(v) and (v > lo if lo_open else v >= lo) and \
-        (v < hi if hi_open else v <= hi)
-    if not ok:
-        lb = "(" if lo_open else "["
-        rb = ")" if hi_open else "]"
-        raise fail(func, name, f"finite, in {lb}{lo}, {hi}{rb}", value)
-    return v
+    return _checks.check_float(name, value, lo, hi, lo_open=lo_open, hi_open=hi_open,
+                               where=f"montecarlo.{func}")
 
 
 def check_system(func: str, system: Any) -> VibroImpactSystem:

@@ -1,0 +1,38 @@
+"""Argument checks shared by the solvers: one message format for bad input.
+
+``<where>: <name> must be <allowed>; got <value>`` — raised before any work.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+__all__ = ["check_int", "check_float"]
+
+
+def _error(where: str | None, name: str, allowed: str, value: Any) -> ValueError:
+    return ValueError(f"{where + ': ' if where else ''}{name} must be {allowed}; got {value!r}")
+
+
+def check_int(name: str, value: Any, lo: int, hi: int | None = None, *,
+              where: str | None = None) -> int:
+    """``value`` as an int in [lo, hi] (hi None: unbounded); bools are rejected."""
+    allowed = f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
+            or value < lo or (hi is not None and value > hi):
+        raise _error(where, name, allowed, value)
+    return int(value)
+
+
+def check_float(name: str, value: Any, lo: float, hi: float = math.inf, *,
+                lo_open: bool = True, hi_open: bool = False, where: str | None = None) -> float:
+    """``value`` as a finite float in the interval lo..hi (open or closed ends)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise _error(where, name, "a real number", value)
+    v = float(value)
+    if not (math.isfinite(v) and (v > lo if lo_open else v >= lo)
+            and (v < hi if hi_open else v <= hi)):
+        lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
+        raise _error(where, name, f"finite, in {lb}{lo}, {hi}{rb}", value)
+    return v
