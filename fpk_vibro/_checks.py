@@ -33,6 +33,10 @@ def check_float(name: str, value: Any, lo: float, hi: float = math.inf, *,
     v = float(value)
     if not (math.isfinite(v) and (v > lo if lo_open else v >= lo)
             and (v < hi if hi_open else v <= hi)):
-        lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
-        raise _error(where, name, f"finite, in {lb}{lo}, {hi}{rb}", value)
+        if math.isinf(hi):
+            allowed = f"a finite number {'>' if lo_open else '>='} {lo:g}"
+        else:
+            lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
+            allowed = f"a finite number in {lb}{lo:g}, {hi:g}{rb}"
+        raise _error(where, name, allowed, value)
     return v
