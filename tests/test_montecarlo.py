@@ -276,7 +276,7 @@ def test_transient_start_and_relaxation():
 @pytest.mark.parametrize("kwargs, match", [
     (dict(n_paths=1), "n_paths must be an integer in \\[2"),
     (dict(n_paths=2.5), "n_paths"),
-    (dict(dt=-0.1), "dt must be finite, in \\(0.0"),
+    (dict(dt=-0.1), "dt must be a finite number > 0"),
     (dict(dt=5.0), "dt must be in \\(0"),
     (dict(dt=float("nan")), "dt"),
     (dict(t_burn=-1.0), "t_burn"),
