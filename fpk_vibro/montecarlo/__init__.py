@@ -76,7 +76,7 @@ measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
   1.46–1.65·10⁸ path-steps/s with the default sampling (1.61–1.84·10⁸ without)
   against 2.9–3.3·10⁸ normals/s drawn alone by the same generator;
   kernel/floor 0.53–0.55 by wall time and 0.51–0.54 by the thread's CPU time
-  (medians of 9 back-to-back pairs, over four runs).  Two threads: 1.73–1.90×
+  (medians of 9 back-to-back pairs, over six runs).  Two threads: 1.73–2.04×
   one thread (median of pairs; it depends on the other jobs' load).
 - cost per path-step relative to the normal alone (paired runs with parts
   switched off): the square root of the parametric noise ~9 %, sampling every
@@ -94,8 +94,8 @@ measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
   128/256 paths, integer histogram counts, a float32 square root (numba does
   not vectorise it).
 - paper r = 0.92 case to a relative SE of 0.1 % on E[H] in a fresh interpreter
-  (2048 paths, ~4000–5000 time units): 6.2–7.5 s from import to result with a
-  cold numba cache (6.9–8.3 s wall with interpreter start), 1.9–2.4 s warm.
+  (2048 paths, ~4000–5000 time units): 5.0–7.5 s from import to result with a
+  cold numba cache (5.5–8.3 s wall with interpreter start), 1.4–2.4 s warm.
 """
 from ._engine import TransientRun, stationary, transient
 from .solution import QUANTITIES, MonteCarloSolution
