@@ -177,8 +177,11 @@ def default_sample_every(system: VibroImpactSystem, dt: float) -> int:
     """Steps between samples: about T0/4 in time.
 
     E[H] decorrelates over the energy relaxation time 1/λ ≫ T0 (40 for the
-    paper's case, T0 ≈ 6), so denser sampling adds cost, not information; the
-    ensemble's random phases make the x, y histograms unbiased at any interval.
+    paper's case, T0 ≈ 6), so for E[H] denser sampling adds only cost; the x and
+    y histograms do gain from it (paper r = 0.92, equal sampled time: standard
+    errors ×1.4 at T0/2, ×0.7 at T0/8, measured), and T0/4 costs ~6 % of a
+    path-step.  The ensemble's random phases make the histograms unbiased at any
+    interval.
     """
     return max(1, round(period(system) / (4.0 * dt)))
 
