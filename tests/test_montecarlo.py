@@ -369,3 +369,15 @@ def test_random_source_is_standard_normal():
     p_tail = 2 * special.ndtr(-_rng._ZR_TAIL)
     k = int(np.sum(np.abs(z) > _rng._ZR_TAIL))
     assert abs(k - n * p_tail) < 5 * math.sqrt(n * p_tail)
+
+
+def test_default_dt_follows_a_tight_target():
+    """Below target_rse = 1e-3 the default dt shrinks as sqrt(target) (the O(dt²)
+    bias kept near 0.4 × the target); a fixed t_sample keeps T0/120."""
+    s = VibroImpactSystem.paper(r=0.92)
+    dt0 = mc._setup.default_dt(s)
+    kw = dict(n_paths=64, n_batches=4, t_burn=0.0, seed=1, quantities=(), progress=False)
+    assert mc.stationary(s, target_rse=1e-3, max_t_sample=20.0, **kw).dt == dt0
+    tight = mc.stationary(s, target_rse=2.5e-4, max_t_sample=20.0, **kw)
+    assert tight.dt == pytest.approx(dt0 / 2, rel=1e-12)
+    assert mc.stationary(s, target_rse=2.5e-4, t_sample=20.0, **kw).dt == dt0

@@ -162,9 +162,21 @@ def relaxation_rate(system: VibroImpactSystem) -> float:
     return (1.0 - system.r ** 2) / period(system)
 
 
-def default_dt(system: VibroImpactSystem) -> float:
-    """T0/120: measured E[H] bias on the paper's r = 0.92 case below 0.1 %."""
-    return period(system) / 120.0
+#: Target relative SE below which the default dt shrinks (:func:`default_dt`).
+DT_RSE = 1e-3
+
+
+def default_dt(system: VibroImpactSystem, target_rse: float | None = None) -> float:
+    """T0/120, times sqrt(target_rse / DT_RSE) when ``target_rse`` < DT_RSE.
+
+    The scheme's bias is O(dt²): the largest measured at T0/120 is 5.4e-4
+    relative (E[x²] at r = 0.98 against FE; 17e-4 and 65e-4 at 2 and 4 × T0/120),
+    so shrinking dt as sqrt(target_rse) keeps it near 0.4 × a smaller target.
+    """
+    dt = period(system) / 120.0
+    if target_rse is not None and target_rse < DT_RSE:
+        dt *= math.sqrt(target_rse / DT_RSE)
+    return dt
 
 
 def default_t_burn(system: VibroImpactSystem) -> float:
