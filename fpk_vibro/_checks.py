@@ -8,10 +8,11 @@ import math
 import numbers
 from typing import Any
 
-__all__ = ["check_int", "check_float"]
+__all__ = ["invalid", "check_int", "check_float"]
 
 
-def _error(where: str | None, name: str, allowed: str, value: Any) -> ValueError:
+def invalid(where: str | None, name: str, allowed: str, value: Any) -> ValueError:
+    """The ValueError for ``name`` = ``value`` outside ``allowed`` (to raise)."""
     return ValueError(f"{where + ': ' if where else ''}{name} must be {allowed}; got {value!r}")
 
 
@@ -21,7 +22,7 @@ def check_int(name: str, value: Any, lo: int, hi: int | None = None, *,
     allowed = f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}"
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
             or value < lo or (hi is not None and value > hi):
-        raise _error(where, name, allowed, value)
+        raise invalid(where, name, allowed, value)
     return int(value)
 
 
@@ -29,7 +30,7 @@ def check_float(name: str, value: Any, lo: float, hi: float = math.inf, *,
                 lo_open: bool = True, hi_open: bool = False, where: str | None = None) -> float:
     """``value`` as a finite float in the interval lo..hi (open or closed ends)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise _error(where, name, "a real number", value)
+        raise invalid(where, name, "a real number", value)
     v = float(value)
     if not (math.isfinite(v) and (v > lo if lo_open else v >= lo)
             and (v < hi if hi_open else v <= hi)):
@@ -38,5 +39,5 @@ def check_float(name: str, value: Any, lo: float, hi: float = math.inf, *,
         else:
             lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
             allowed = f"a finite number in {lb}{lo:g}, {hi:g}{rb}"
-        raise _error(where, name, allowed, value)
+        raise invalid(where, name, allowed, value)
     return v

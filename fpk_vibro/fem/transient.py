@@ -36,7 +36,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import skfem
 
-from .._checks import check_float
+from .._checks import check_float, invalid
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from ..solution import Solution
@@ -81,6 +81,12 @@ class Discretisation:
                            info=info, tensor=self.tensor, mass=float(self.unit @ p))
 
 
+def _check_positivity(positivity: Any) -> None:
+    if not (positivity is False or positivity in POSITIVITY):
+        raise invalid("fem.transient", "positivity", f"False, True or one of {POSITIVITY[1:]}",
+                      positivity)
+
+
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                element: str = "quad", grading: float = 0.0,
@@ -89,9 +95,7 @@ def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     ``positivity`` (see the module docstring) the positive generator and the
     lumped masses instead."""
     from . import _validate, default_mesh
-    if not (positivity is False or positivity in POSITIVITY):
-        raise ValueError(f"fem.transient: positivity must be False, True or one of "
-                         f"{POSITIVITY[1:]}; got {positivity!r}")
+    _check_positivity(positivity)
     _validate(system, mesh, nx, ny, y_max, degree, "auto", element, grading, positivity,
               "auto")
     if mesh is None:
@@ -216,9 +220,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
                              f"discretisation's ({discretisation.positivity!r}); build it "
                              "with discretise(..., positivity=...)")
         positivity = discretisation.positivity
-    elif not (positivity is False or positivity in POSITIVITY):
-        raise ValueError(f"fem.transient: positivity must be False, True or one of "
-                         f"{POSITIVITY[1:]}; got {positivity!r}")
+    else:
+        _check_positivity(positivity)
     if scheme is None:
         scheme = "euler" if positivity else "bdf2"
     if scheme not in SCHEMES:

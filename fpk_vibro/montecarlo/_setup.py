@@ -18,7 +18,7 @@ CHUNK_PATH_STEPS = 1 << 23      # path-steps per kernel call (progress / Ctrl-C 
 
 
 def fail(func: str, name: str, allowed: str, value: Any) -> ValueError:
-    return ValueError(f"montecarlo.{func}: {name} must be {allowed}; got {value!r}")
+    return _checks.invalid(f"montecarlo.{func}", name, allowed, value)
 
 
 def check_int(func: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
