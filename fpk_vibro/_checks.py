@@ -1,43 +1,140 @@
-"""Argument checks shared by the solvers: one message format for bad input.
+"""The one argument checker: every bad input ends in one line naming it.
 
-``<where>: <name> must be <allowed>; got <value>`` — raised before any work.
+Messages read ``<where>: <name> must be <allowed>; got <value>`` and are raised as
+:class:`InputError` (a ``ValueError``) before any work.  The error carries
+``where`` and ``name`` so that callers (scenes, the CLI) can name their own key
+without parsing the text.
 """
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
+from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["invalid", "check_int", "check_float"]
+__all__ = ["InputError", "invalid", "show", "check_int", "check_float", "check_choice",
+           "check_bool", "check_system", "closest"]
+
+#: Longest value representation put in a message.
+_SHOW = 80
 
 
-def invalid(where: str | None, name: str, allowed: str, value: Any) -> ValueError:
-    """The ValueError for ``name`` = ``value`` outside ``allowed`` (to raise)."""
-    return ValueError(f"{where + ': ' if where else ''}{name} must be {allowed}; got {value!r}")
+class InputError(ValueError):
+    """A bad argument, option or scene key; ``name`` and ``where`` say which."""
+
+    def __init__(self, message: str, *, where: str | None = None, name: str = "") -> None:
+        super().__init__(message)
+        self.where, self.name = where, name
+
+    @property
+    def rule(self) -> str:
+        """The message after ``<where>: <name>``: what is wrong, to put after another key."""
+        text = str(self)
+        if self.where and text.startswith(self.where + ": "):
+            text = text[len(self.where) + 2:]
+        if self.name and text.startswith(self.name):
+            text = text[len(self.name):].lstrip(":").lstrip()
+        return text
+
+    def keyed(self, key: str, suffix: str = "") -> str:
+        """The message naming ``key`` (e.g. a scene key) instead."""
+        rule = self.rule
+        sep = " " if rule.startswith(("must ", "needs ")) else ": "
+        return f"{key}{sep}{rule}{suffix}"
+
+
+def show(value: Any) -> str:
+    """A short one-line representation of ``value`` for a message."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool) \
+            and abs(int(value)) > 10 ** 30:
+        return f"<integer with {len(str(abs(int(value))))} digits>"
+    try:
+        text = repr(value)
+    except Exception:  # a hostile __repr__ must not hide the real error
+        text = f"<{type(value).__name__}>"
+    text = " ".join(text.split())
+    return text if len(text) <= _SHOW else text[:_SHOW - 3] + "..."
+
+
+def invalid(where: str | None, name: str, allowed: str, value: Any, why: str = "") -> InputError:
+    """The error for ``name`` = ``value`` outside ``allowed`` (to raise)."""
+    msg = f"{where + ': ' if where else ''}{name} must be {allowed}; got {show(value)}"
+    if why:
+        msg += f" ({why})"
+    return InputError(msg, where=where, name=name)
+
+
+def closest(word: Any, options: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for a near miss, else an empty string."""
+    if not isinstance(word, str):
+        return ""
+    match = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    return f" (did you mean {match[0]!r}?)" if match else ""
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 def check_int(name: str, value: Any, lo: int, hi: int | None = None, *,
-              where: str | None = None) -> int:
+              where: str | None = None, even: bool = False) -> int:
     """``value`` as an int in [lo, hi] (hi None: unbounded); bools are rejected."""
     allowed = f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
-            or value < lo or (hi is not None and value > hi):
+    if even:
+        allowed = "an even " + allowed[3:]
+    if not _is_int(value) or value < lo or (hi is not None and value > hi) \
+            or (even and value % 2):
         raise invalid(where, name, allowed, value)
     return int(value)
 
 
-def check_float(name: str, value: Any, lo: float, hi: float = math.inf, *,
+def interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    """'a finite number > 0', 'a finite number in [0, 1]', … for a message."""
+    if math.isinf(hi) and math.isinf(lo):
+        return "a finite number"
+    if math.isinf(hi):
+        return f"a finite number {'>' if lo_open else '>='} {lo:g}"
+    if math.isinf(lo):
+        return f"a finite number {'<' if hi_open else '<='} {hi:g}"
+    lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
+    return f"a finite number in {lb}{lo:g}, {hi:g}{rb}"
+
+
+def check_float(name: str, value: Any, lo: float = -math.inf, hi: float = math.inf, *,
                 lo_open: bool = True, hi_open: bool = False, where: str | None = None) -> float:
     """``value`` as a finite float in the interval lo..hi (open or closed ends)."""
+    allowed = interval(lo, hi, lo_open, hi_open)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise invalid(where, name, "a real number", value)
-    v = float(value)
+        raise invalid(where, name, allowed, value)
+    try:
+        v = float(value)
+    except (OverflowError, ValueError):
+        raise invalid(where, name, allowed, value) from None
     if not (math.isfinite(v) and (v > lo if lo_open else v >= lo)
             and (v < hi if hi_open else v <= hi)):
-        if math.isinf(hi):
-            allowed = f"a finite number {'>' if lo_open else '>='} {lo:g}"
-        else:
-            lb, rb = "(" if lo_open else "[", ")" if hi_open else "]"
-            allowed = f"a finite number in {lb}{lo:g}, {hi:g}{rb}"
         raise invalid(where, name, allowed, value)
     return v
+
+
+def check_choice(name: str, value: Any, choices: tuple, *, where: str | None = None) -> Any:
+    """``value`` if it is one of ``choices`` (compared by type and value)."""
+    for c in choices:
+        if type(value) is type(c) and value == c:
+            return c
+    words = [c for c in choices if isinstance(c, str)]
+    raise invalid(where, name, f"one of {list(choices)}", value, closest(value, words)[2:-1])
+
+
+def check_bool(name: str, value: Any, *, where: str | None = None) -> bool:
+    if not isinstance(value, bool):
+        raise invalid(where, name, "True or False", value)
+    return value
+
+
+def check_system(where: str, system: Any):
+    """``system`` if it is a :class:`~fpk_vibro.VibroImpactSystem`."""
+    from .model import VibroImpactSystem
+    if not isinstance(system, VibroImpactSystem):
+        raise invalid(where, "system", "a VibroImpactSystem", system)
+    return system

@@ -59,17 +59,21 @@ def cmd_paper(args: argparse.Namespace) -> int:
     return 0
 
 
+def _load(args: argparse.Namespace):
+    from .scenes import load_scene
+    scene = load_scene(args.scene)
+    return scene.reduced() if getattr(args, "reduced", False) else scene
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from .runner import run_scene
-    from .scenes import load_scene
 
-    scene = load_scene(args.scene)
-    if args.reduced:
-        scene = scene.reduced()
+    scene = _load(args)
     log = (lambda s: None) if args.quiet else print
     log(f"fpk-vibro: scene {scene.name!r}: methods {list(scene.methods)}, "
-        f"{len(scene.points())} point(s), effects {scene.system.effects}")
-    doc = run_scene(scene, out=args.out, workers=args.workers, scheduler=args.scheduler, log=log)
+        f"{scene.n_points} point(s), effects {scene.system.effects}")
+    doc = run_scene(scene, out=args.out, workers=args.workers, scheduler=args.scheduler,
+                    log=log, progress=None if not args.quiet else False)
     out = Path(args.out) if args.out else scene.output_dir
     if not args.quiet:
         _print_summary(doc)
@@ -78,12 +82,25 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from .scenes import load_scene
+    """Every check of ``run``, per point and method, with the cost estimates."""
+    from .budget import human_bytes, human_seconds
+    from .scenes import check_scene
 
-    scene = load_scene(args.scene)
+    scene = _load(args)
+    points = check_scene(scene)
     print(f"{args.scene}: valid — methods {list(scene.methods)}, quantities "
           f"{list(scene.quantities)}, {'times ' + str(list(scene.times)) if scene.transient else 'stationary'}, "
-          f"{len(scene.points())} point(s)")
+          f"{len(points)} point(s){' (reduced)' if args.reduced else ''}")
+    total_s, peak = 0.0, 0.0
+    for i, pt in enumerate(points):
+        label = ", ".join(f"{k}={v:g}" for k, v in pt["parameters"].items()) or "single point"
+        print(f"  point {i + 1}: {label}")
+        for method, cost in pt["costs"].items():
+            print(f"    {method:<11s} {cost.describe()}")
+            total_s += cost.seconds
+            peak = max(peak, cost.memory)
+    print(f"  estimated total: ~{human_seconds(total_s)} of compute, at most "
+          f"~{human_bytes(peak)} of memory per point")
     return 0
 
 
@@ -138,22 +155,48 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return int(module.main(args.rest) or 0)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit status 2), no usage dump."""
+
+    def error(self, message: str):  # noqa: D102
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
+def _positive_int(flag: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < 1 or value > 4096:
+            raise argparse.ArgumentTypeError(f"must be an integer in [1, 4096]; got {text!r}")
+        return value
+    parse.__name__ = flag
+    return parse
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="fpk-vibro", description=__doc__.split("\n")[0])
+    p = _Parser(prog="fpk-vibro", description=__doc__.split("\n")[0])
     p.add_argument("--version", action="version", version=f"fpk-vibro {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     pr = sub.add_parser("run", help="run a scene (TOML)")
     pr.add_argument("scene")
     pr.add_argument("--out", default=None, help="output directory (default: the scene's)")
     pr.add_argument("--quiet", action="store_true", help="print nothing but errors")
     pr.add_argument("--reduced", action="store_true",
                     help="a reduced size (few paths, coarse meshes) for a first look and tests")
-    pr.add_argument("--workers", type=int, default=None, help="local worker processes for a sweep")
+    pr.add_argument("--workers", type=_positive_int("--workers"), default=None,
+                    help="local worker processes for a sweep (>= 1)")
+    pr.add_argument("--force", action="store_true",
+                    help="run even beyond the estimated memory, time or sweep limits")
     pr.add_argument("--scheduler", default=None,
                     help="Dask scheduler ADDRESS for sweeps (extra fpk-vibro[distributed])")
     pr.set_defaults(func=cmd_run)
-    pc = sub.add_parser("check", help="validate a scene without running it")
+    pc = sub.add_parser("check", help="validate a scene and estimate its cost, without running it")
     pc.add_argument("scene")
+    pc.add_argument("--reduced", action="store_true", help="check the reduced size")
+    pc.add_argument("--force", action="store_true",
+                    help="accept work beyond the estimated memory, time or sweep limits")
     pc.set_defaults(func=cmd_check)
     ps = sub.add_parser("show", help="summary table of a results directory")
     ps.add_argument("dir")
@@ -177,10 +220,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "force", False):
+            from .budget import unlimited
+            with unlimited():
+                return int(args.func(args) or 0)
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("fpk-vibro: interrupted", file=sys.stderr)
         return 130
     except ValueError as exc:
-        print(f"fpk-vibro: error: {exc}", file=sys.stderr)
+        print(f"fpk-vibro: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from scipy import integrate, special
 
+from ._checks import InputError, check_system
 from .model import VibroImpactSystem
 from .orbits import orbit_nodes, require_single_well
 from .solution import Solution
@@ -37,10 +38,7 @@ class GibbsSolution(Solution):
     kind = "exact"
 
     def __init__(self, system: VibroImpactSystem) -> None:
-        if system.D2 != 0:
-            raise ValueError(f"exact Gibbs density needs D2 = 0; got D2={system.D2}")
-        if system.has_barrier and system.r != 1.0:
-            raise ValueError(f"exact Gibbs density needs elastic impacts r = 1; got r={system.r}")
+        require_gibbs(system)
         self.system = system
         self.beta = system.c / system.D1
         lo, hi = system.x_bounds
@@ -152,6 +150,14 @@ class GibbsSolution(Solution):
     @classmethod
     def _from_state(cls, system, meta, arrays):
         return cls(system)
+
+
+def require_gibbs(system: VibroImpactSystem) -> None:
+    """Raise :class:`~fpk_vibro._checks.InputError` unless r = 1 (or no barrier), D2 = 0."""
+    check_system("exact.gibbs", system)
+    if system.D2 != 0 or (system.has_barrier and system.r != 1.0):
+        raise InputError(f"exact: the Gibbs density needs D2 = 0 and r = 1 (or no barrier); "
+                         f"got D2={system.D2}, r={system.r}", where="exact", name="system")
 
 
 def gibbs(system: VibroImpactSystem) -> GibbsSolution:

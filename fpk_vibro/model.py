@@ -17,16 +17,39 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["VibroImpactSystem", "BARRIER_KINDS"]
+from ._checks import InputError, check_float, invalid
+from .options import REQUIRED, Option
+
+__all__ = ["VibroImpactSystem", "BARRIER_KINDS", "FIELDS"]
 
 BARRIER_KINDS = ("both", "right", "none")
 
+#: The model's fields, declared once: validation here, the scene's [system] and
+#: [barriers] tables and the README's key table come from this.
+FIELDS: dict[str, Option] = {
+    "a": Option(REQUIRED, "linear stiffness", "float", lo=float("-inf"), unit="1/s²",
+                scene="system.a"),
+    "b": Option(REQUIRED, "cubic stiffness", "float", lo=float("-inf"), unit="1/(m² s²)",
+                scene="system.b"),
+    "c": Option(REQUIRED, "damping, the paper's ε²c", "float", lo=0.0, unit="1/s",
+                scene="system.c"),
+    "D1": Option(REQUIRED, "external noise intensity, the paper's ε²D11", "float", lo=0.0,
+                 lo_open=True, unit="m²/s³", scene="system.D1",
+                 why="without external noise the origin is a noise-free fixed point and "
+                     "there is no stationary density"),
+    "D2": Option(0.0, "parametric noise intensity, the paper's ε²D22", "float", lo=0.0,
+                 unit="1/s³", scene="system.D2"),
+    "delta": Option(None, "barrier position Δ; required unless sides = \"none\"", "float",
+                    lo=0.0, lo_open=True, unit="m", scene="barriers.delta"),
+    "r": Option(1.0, "restitution coefficient, y⁺ = −r y⁻", "float", lo=0.0, hi=1.0,
+                scene="barriers.r"),
+    "barriers": Option("both", "barriers at ±Δ, at +Δ only, or none", "choice",
+                       choices=BARRIER_KINDS, scene="barriers.sides"),
+}
 
-def _fail(field: str, allowed: str, value: Any, why: str = "") -> ValueError:
-    msg = f"VibroImpactSystem: {field} must be {allowed}; got {value!r}"
-    if why:
-        msg += f" ({why})"
-    return ValueError(msg)
+
+def _fail(field: str, allowed: str, value: Any, why: str = "") -> InputError:
+    return invalid("VibroImpactSystem", field, allowed, value, why)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -72,36 +95,16 @@ class VibroImpactSystem:
     barriers: str = "both"
 
     def __post_init__(self) -> None:
-        if self.barriers not in BARRIER_KINDS:
-            raise _fail("barriers", f"one of {BARRIER_KINDS}", self.barriers)
-        for name in ("a", "b", "c", "D1", "D2", "r"):
+        where = "VibroImpactSystem"
+        for name in ("barriers",) + tuple(k for k in FIELDS if k != "barriers"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-                raise _fail(name, "a real number", value)
-            if not math.isfinite(value):
-                raise _fail(name, "finite", value)
-            object.__setattr__(self, name, float(value))
-        if self.has_barrier:
-            d = self.delta
-            if d is None or isinstance(d, bool) or not isinstance(d, (int, float, np.integer, np.floating)):
-                raise _fail("delta", "a finite number > 0 when there is a barrier", d)
-            if not math.isfinite(d) or d <= 0:
-                raise _fail("delta", "a finite number > 0 when there is a barrier", d)
-            object.__setattr__(self, "delta", float(d))
-        elif self.delta is not None:
-            if not isinstance(self.delta, (int, float, np.integer, np.floating)) or not math.isfinite(self.delta):
-                raise _fail("delta", "None or a finite number (ignored without barriers)", self.delta)
-            object.__setattr__(self, "delta", float(self.delta))
-        if not 0.0 <= self.r <= 1.0:
-            raise _fail("r", "in [0, 1]", self.r)
-        if self.c < 0:
-            raise _fail("c", ">= 0", self.c)
-        if self.D1 <= 0:
-            raise _fail("D1", "> 0", self.D1,
-                        "without external noise the origin is a noise-free fixed point "
-                        "and there is no stationary density")
-        if self.D2 < 0:
-            raise _fail("D2", ">= 0", self.D2)
+            if name == "delta" and not self.has_barrier:      # ignored: None or finite
+                if value is not None:
+                    object.__setattr__(self, name, check_float(name, value, where=where))
+                continue
+            if name == "delta" and value is None:
+                raise _fail(name, "a finite number > 0 when there is a barrier", value)
+            object.__setattr__(self, name, FIELDS[name].validate(name, value, where))
         if self.barriers != "both" and not (self.b > 0 or (self.b == 0 and self.a > 0)):
             field = "b" if self.b != 0 else "a"
             raise _fail(field, "b > 0, or b = 0 with a > 0, on a side without barrier",

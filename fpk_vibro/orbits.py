@@ -22,7 +22,7 @@ import numpy as np
 
 from .model import VibroImpactSystem
 
-__all__ = ["OrbitNodes", "orbit_nodes", "require_single_well", "energy_loss"]
+__all__ = ["OrbitNodes", "orbit_nodes", "single_well", "require_single_well", "energy_loss"]
 
 
 class OrbitNodes:
@@ -46,16 +46,19 @@ class OrbitNodes:
         return 2.0 * np.sum(self.w, axis=-1)
 
 
+def single_well(system: VibroImpactSystem) -> bool:
+    """True when G increases on (0, Δ) (or (0, ∞)): one orbit per energy level."""
+    a, b = system.a, system.b
+    if system.barriers == "both":
+        return a >= 0 and a + b * system.delta ** 2 > 0 and (a > 0 or b > 0)
+    return a >= 0 and b >= 0 and (a > 0 or b > 0)
+
+
 def require_single_well(system: VibroImpactSystem, method: str = "averaging") -> None:
     """Raise ``ValueError`` unless G increases on (0, Δ): one orbit per energy level."""
     a, b = system.a, system.b
-    if system.barriers == "both":
-        ok = a >= 0 and a + b * system.delta ** 2 > 0 and (a > 0 or b > 0)
-        where = f"(0, Δ) = (0, {system.delta})"
-    else:
-        ok = a >= 0 and b >= 0 and (a > 0 or b > 0)
-        where = "(0, ∞)"
-    if not ok:
+    where = f"(0, Δ) = (0, {system.delta})" if system.barriers == "both" else "(0, ∞)"
+    if not single_well(system):
         raise ValueError(
             f"{method} needs the potential G(x) = a x²/2 + b x⁴/4 increasing on {where} "
             f"(one orbit per energy level); a={a}, b={b} gives G' = 0 inside it. "

@@ -24,7 +24,8 @@ import numpy as np
 
 from .io import atomic_savez, atomic_write_text
 from .model import VibroImpactSystem
-from .scenes import Scene
+from .plan import solver_kwargs
+from .scenes import Scene, check_scene
 
 __all__ = ["run_scene", "run_point", "grids_for"]
 
@@ -42,42 +43,18 @@ def grids_for(system: VibroImpactSystem, reference: Any) -> dict[str, np.ndarray
             "joint": (np.linspace(lo, hi, 121), np.linspace(-y_top, y_top, 121))}
 
 
-def _solve(method: str, system: VibroImpactSystem, scene: Scene) -> Any:
-    """One method on one system, with the scene's numerics; returns a Solution or a list."""
-    num = dict(scene.numerics.get(method, {}))
+def _solve(method: str, system: VibroImpactSystem, scene: Scene,
+           progress: bool | None = False) -> Any:
+    """One method on one system with the scene's keywords; a Solution or a list."""
+    from importlib import import_module
+    kw = solver_kwargs(scene, method, progress=progress)
     if method == "exact":
         from . import exact
         return exact.gibbs(system)
-    if method == "averaging":
-        from . import averaging
-        if scene.transient:
-            return averaging.transient(system, initial=scene.initial, times=scene.times,
-                                       n_cells=num.get("n_cells", 400))
-        return averaging.stationary(system, n_theta=num["n_theta"], n_panel=num["n_panel"])
-    if method == "montecarlo":
-        from . import montecarlo
-        wanted = tuple(q for q in scene.quantities if q in montecarlo.QUANTITIES)
-        kw = {k: v for k, v in num.items() if k in ("n_paths", "dt", "seed", "bins")}
-        if scene.transient:
-            return list(montecarlo.transient(system, initial=scene.initial, times=scene.times,
-                                             quantities=wanted, progress=False, **kw))
-        kw.update({k: v for k, v in num.items() if k in ("t_burn", "t_sample")})
-        return montecarlo.stationary(system, quantities=wanted, progress=False, **kw)
-    if method == "fem":
-        from . import fem
-        kw = {k: v for k, v in num.items() if k in ("nx", "ny", "y_max", "degree", "solver",
-                                                    "positivity")}
-        if "mesh" in num:
-            import skfem
-            kw["mesh"] = skfem.Mesh.load(num["mesh"])
-        if scene.transient:
-            kw.update({k: v for k, v in num.items() if k in ("dt", "scheme", "theta")})
-            kw.pop("solver", None)
-            if not kw.get("positivity"):
-                kw.pop("positivity", None)
-            return fem.transient(system, initial=scene.initial, times=scene.times, **kw)
-        return fem.stationary(system, **kw)
-    raise ValueError(f"unknown method {method!r}")
+    module = import_module(f"fpk_vibro.{method}")
+    if scene.transient:
+        return list(module.transient(system, initial=scene.initial, times=scene.times, **kw))
+    return module.stationary(system, **kw)
 
 
 def _moments_record(sol: Any) -> dict[str, Any]:
@@ -92,7 +69,7 @@ def _moments_record(sol: Any) -> dict[str, Any]:
 
 
 def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
-              out_dir: Path) -> dict[str, Any]:
+              out_dir: Path, progress: bool | None = False) -> dict[str, Any]:
     """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
     from . import plotting
 
@@ -102,7 +79,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
     for method in scene.methods:
         importlib.import_module(f"fpk_vibro.{method}")   # imports are not the method's time
         t0 = time.perf_counter()
-        sol = _solve(method, system, scene)
+        sol = _solve(method, system, scene, progress)
         wall = time.perf_counter() - t0
         solutions[method] = sol
         entry: dict[str, Any] = {"wall_time_s": wall}
@@ -156,20 +133,28 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
 
 
 def _point_job(args: tuple) -> dict[str, Any]:
-    scene, index, params, system, out_dir = args
+    scene, index, params, system, out_dir, progress = args
     try:
-        return run_point(scene, index, params, system, out_dir)
+        return run_point(scene, index, params, system, out_dir, progress)
     except Exception as exc:  # a failed point is reported, the others go on
         return {"index": index, "parameters": params, "error": f"{type(exc).__name__}: {exc}"}
 
 
 def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | None = None,
-              scheduler: str | None = None, log: Callable[[str], None] = print) -> dict[str, Any]:
-    """Run every point of ``scene``; returns (and writes) the results document."""
+              scheduler: str | None = None, log: Callable[[str], None] = print,
+              progress: bool | None = False) -> dict[str, Any]:
+    """Run every point of ``scene``; returns (and writes) the results document.
+
+    ``progress`` (None: on a terminal) is passed to the solvers of a run in this
+    process (one point, or ``workers=1``); worker processes show none.
+    """
+    check_scene(scene)                  # every check of every point, before any work
     out_dir = Path(out) if out is not None else scene.output_dir
     out_dir.mkdir(parents=True, exist_ok=True)
     points = scene.points()
-    jobs = [(scene, i, params, system, out_dir) for i, (params, system) in enumerate(points)]
+    serial = scheduler is None and (len(points) == 1 or workers == 1)
+    jobs = [(scene, i, params, system, out_dir, progress if serial else False)
+            for i, (params, system) in enumerate(points)]
     records: list[dict[str, Any]] = []
     t0 = time.perf_counter()
     if scheduler is not None:
@@ -178,7 +163,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
             futures = client.map(_point_job, jobs, pure=False)
             for fut in dask_completed(futures):
                 records.append(_report(fut.result(), len(jobs), log))
-    elif len(jobs) == 1 or workers == 1:
+    elif serial:
         for job in jobs:
             records.append(_report(_point_job(job), len(jobs), log))
     else:

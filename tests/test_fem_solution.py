@@ -31,10 +31,14 @@ def test_attributes(sol):
 
 
 def test_default_y_max_tail_rule():
-    """Gibbs: P(|y| > Y) = erfc(Y/√(2T)) = 1e-8 at the default Y."""
+    """Gibbs: the exact mass above the cut energy H_t = Y²/2 is just below 1e-8."""
     from scipy.special import erfc
     Y = default_y_max(SYSTEM)
-    assert abs(erfc(Y / np.sqrt(2 * T)) - 1e-8) < 1e-12
+    H_t = 0.5 * Y * Y
+    w = lambda x: np.exp(-SYSTEM.potential(x) / T)
+    tail = integrate.quad(lambda x: w(x) * erfc(np.sqrt((H_t - SYSTEM.potential(x)) / T)),
+                          -0.6, 0.6)[0] / integrate.quad(w, -0.6, 0.6)[0]
+    assert 0.8e-8 < tail <= 1e-8
 
 
 def test_marginals_match_exact(sol):

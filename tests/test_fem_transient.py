@@ -177,10 +177,10 @@ def test_positive_transient_long_time_limit(paper92, positive_coarse):
 
 
 @pytest.mark.parametrize("kw, match", [
-    (dict(positivity=True, scheme="bdf2"), "implicit Euler"),
-    (dict(positivity=True, scheme="theta", theta=0.5), "implicit Euler"),
+    (dict(positivity=True, scheme="bdf2"), "euler"),
+    (dict(positivity=True, scheme="theta", theta=0.5), "euler"),
     (dict(positivity=True, tol=1e-4), "tol"),
-    (dict(positivity=True, degree=2), "degree=1"),
+    (dict(positivity=True, degree=2), "degree = 1"),
     (dict(positivity="afc"), "positivity"),
     (dict(positivity="sometimes"), "positivity"),
 ])

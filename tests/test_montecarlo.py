@@ -291,7 +291,7 @@ def test_transient_start_and_relaxation():
     (dict(n_batches=1), "n_batches"),
     (dict(target_rse=0.0), "target_rse"),
     (dict(max_impacts=0), "max_impacts"),
-    (dict(threads=0), "threads must be an integer >= 1"),
+    (dict(threads=0), "threads must be an integer in \\[1, 1024\\]"),
 ])
 def test_bad_inputs_raise_before_work(kwargs, match, monkeypatch):
     from fpk_vibro.montecarlo import _kernel

@@ -76,7 +76,7 @@ def test_vectorised_sweep_equals_scalar_scheme(name):
     xr, yr, rr = xs.copy(), ys.copy(), rng.copy()
     nimp_ref = scalar_reference(xr, yr, rr, starts, n_steps, p, ip, K.CHUNK)
 
-    hist = S.Histograms(system, (), S.check_bins("t", 10), n_blocks, 1.0)
+    hist = S.Histograms(system, (), S.check_bins("bins", 10, "t"), n_blocks, 1.0)
     mom = np.zeros((n_blocks, K.NM))
     imp = np.zeros((n_blocks, 2))
     xext = np.tile([np.inf, -np.inf], (n_blocks, 1))

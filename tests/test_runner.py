@@ -74,16 +74,44 @@ def test_moments_and_densities_saved(tmp_path):
         assert d["p0.averaging.energy.grid"].size == d["p0.averaging.energy.pdf"].size
 
 
-def test_sweep_in_parallel_and_a_failed_point_is_reported(tmp_path):
-    """Linear oscillator without barrier: D2 = 0.2 gives a power-law tail, an error."""
+def test_a_point_where_averaging_does_not_apply_is_refused_before_any_work(tmp_path):
+    """Linear oscillator without barrier: D2 = 0.2 gives a power-law tail."""
+    from fpk_vibro.scenes import SceneError
     text = AVG_ONLY.replace("b = 0.2", "b = 0.0").replace("delta = 0.6\nr = 0.92", 'sides = "none"')
     text += "\n[sweep]\nD2 = [0.0, 0.2]\n"
-    doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", workers=2, log=lambda s: None)
+    with pytest.raises(SceneError, match=r"study.methods: averaging: .*does not converge.*D2 = 0.2"):
+        run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", workers=2,
+                  log=lambda s: None)
+    assert not (tmp_path / "o").exists()
+
+
+def test_sweep_in_parallel_and_a_failed_point_is_reported(tmp_path, monkeypatch):
+    """A point that fails during its run is reported; the others are kept."""
+    from fpk_vibro import runner
+    solve = runner._solve
+
+    def failing(method, system, scene, progress=False):
+        if system.r == 0.5:
+            raise RuntimeError("the solver broke")
+        return solve(method, system, scene, progress)
+
+    monkeypatch.setattr(runner, "_solve", failing)
+    text = AVG_ONLY + "\n[sweep]\nr = [0.92, 0.5]\n"
+    doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", workers=1,
+                    log=lambda s: None)
     ok, bad = doc["points"]
-    assert "methods" in ok and "error" in bad and "does not converge" in bad["error"]
-    assert bad["parameters"] == {"D2": 0.2}
+    assert "methods" in ok and "error" in bad and "the solver broke" in bad["error"]
+    assert bad["parameters"] == {"r": 0.5}
     assert (tmp_path / "o" / "points" / "p0.json").exists()
     assert not list((tmp_path / "o").rglob("*.tmp"))
+
+
+def test_sweep_in_worker_processes(tmp_path):
+    text = AVG_ONLY + "\n[sweep]\nr = [0.92, 0.5]\n"
+    doc = run_scene(load_scene(write(tmp_path, text)), out=tmp_path / "o", workers=2,
+                    log=lambda s: None)
+    E = [p["methods"]["averaging"]["moments"]["E_H"] for p in doc["points"]]
+    assert [p["parameters"]["r"] for p in doc["points"]] == [0.92, 0.5] and E[1] < E[0]
 
 
 def test_cli_check_and_show(tmp_path, capsys):

@@ -3,7 +3,7 @@ import textwrap
 
 import pytest
 
-from fpk_vibro.scenes import SceneError, load_scene, parse_scene, schema_table
+from fpk_vibro.scenes import SceneError, check_scene, load_scene, parse_scene, schema_table
 
 GOOD = """
 [system]
@@ -65,7 +65,7 @@ BAD = [
     ("transient without initial", GOOD.replace('quantities =', 'times = [1.0]\nquantities ='), "initial.mean", "initial"),
     ("fem degree 3", GOOD + "\n[fem]\ndegree = 3\n", "fem.degree", "[1, 2]"),
     ("fem nx float", GOOD + "\n[fem]\nnx = 10.5\n", "fem.nx", "integer"),
-    ("mc paths zero", GOOD + "\n[montecarlo]\nn_paths = 0\n", "montecarlo.n_paths", "[1"),
+    ("mc paths zero", GOOD + "\n[montecarlo]\nn_paths = 0\n", "montecarlo.n_paths", "[2"),
     ("unknown solver", GOOD + '\n[fem]\nsolver = "lu"\n', "fem.solver", "auto"),
     ("sweep unknown parameter", GOOD + "\n[sweep]\ngamma = [1.0]\n", "sweep.gamma", "allowed"),
     ("sweep invalid value", GOOD + "\n[sweep]\nr = [0.5, 1.5]\n", "sweep.r", "[0, 1]"),
@@ -83,7 +83,7 @@ BAD = [
 @pytest.mark.parametrize("label, text, key, hint", BAD, ids=[b[0] for b in BAD])
 def test_malformed_scene_is_one_line_naming_the_key(tmp_path, label, text, key, hint):
     with pytest.raises(SceneError) as exc:
-        load_scene(write(tmp_path, text))
+        check_scene(load_scene(write(tmp_path, text)))
     msg = str(exc.value)
     assert "\n" not in msg
     assert key in msg and hint in msg
@@ -107,9 +107,18 @@ def test_parse_scene_dict():
 
 def test_positive_transient_needs_implicit_euler():
     base = {"system": dict(a=1, b=0, c=0.1, D1=0.1), "barriers": dict(delta=1, r=0.9),
+            "study": dict(methods=["fem"], times=[1.0]),
+            "initial": dict(mean=[0.0, 1.0], std=[0.1, 0.1])}
+    with pytest.raises(SceneError, match="fem.scheme"):
+        check_scene(parse_scene({**base, "fem": dict(positivity=True, scheme="bdf2")}))
+    with pytest.raises(SceneError, match="fem.scheme"):
+        check_scene(parse_scene({**base, "fem": dict(positivity=True, scheme="theta",
+                                                     theta=0.5)}))
+    assert check_scene(parse_scene({**base, "fem": dict(positivity=True, scheme="euler")}))
+
+
+def test_option_of_the_other_mode_is_refused():
+    base = {"system": dict(a=1, b=0, c=0.1, D1=0.1), "barriers": dict(delta=1, r=0.9),
             "study": dict(methods=["fem"])}
-    with pytest.raises(SceneError, match="fem.scheme"):
-        parse_scene({**base, "fem": dict(positivity=True, scheme="bdf2")})
-    with pytest.raises(SceneError, match="fem.scheme"):
-        parse_scene({**base, "fem": dict(positivity=True, scheme="theta", theta=0.5)})
-    assert parse_scene({**base, "fem": dict(positivity=True, scheme="euler")})
+    with pytest.raises(SceneError, match="fem.scheme: only used by transient"):
+        parse_scene({**base, "fem": dict(scheme="euler")})

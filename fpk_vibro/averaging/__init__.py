@@ -6,7 +6,8 @@
 """
 from .coefficients import coefficients
 from .grid_solution import EnergyGridSolution
+from .options import Options
 from .stationary import AveragedSolution, stationary
 from .transient import transient
 
-__all__ = ["coefficients", "stationary", "transient", "AveragedSolution", "EnergyGridSolution"]
+__all__ = ["Options", "coefficients", "stationary", "transient", "AveragedSolution", "EnergyGridSolution"]

@@ -8,19 +8,14 @@ For one traversal of the orbit of energy H (x âˆˆ [x_lo, x_hi], |y| = sqrt(2H âˆ
 """
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from .._checks import check_int
+from .._checks import check_system, invalid
 from ..model import VibroImpactSystem
 from ..orbits import energy_loss, orbit_nodes, require_single_well
+from .options import Options
 
 __all__ = ["coefficients"]
-
-def _check_int(name: str, value: Any, lo: int, hi: int) -> int:
-    return check_int(name, value, lo, hi, where="averaging")
-
 
 def coefficients(system: VibroImpactSystem, H: np.ndarray, *, n_theta: int = 48
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -34,11 +29,15 @@ def coefficients(system: VibroImpactSystem, H: np.ndarray, *, n_theta: int = 48
     T, m, sigma2 : ndarray
         Arrays of the shape of ``H``.
     """
+    check_system("averaging.coefficients", system)
     require_single_well(system)
-    n_theta = _check_int("n_theta", n_theta, 4, 2000)
-    H = np.asarray(H, dtype=float)
+    n_theta = Options.declared()["n_theta"].validate("n_theta", n_theta, "averaging.coefficients")
+    try:
+        H = np.asarray(H, dtype=float)
+    except (TypeError, ValueError):
+        raise invalid("averaging.coefficients", "H", "finite numbers >= 0", H) from None
     if np.any(~np.isfinite(H)) or np.any(H < 0):
-        raise ValueError("averaging.coefficients: H must be finite and >= 0")
+        raise invalid("averaging.coefficients", "H", "finite numbers >= 0", H)
     o = orbit_nodes(system, H, n_theta)
     T = o.period
     v2 = o.v ** 2

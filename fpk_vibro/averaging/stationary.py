@@ -27,9 +27,12 @@ import numpy as np
 from numpy.polynomial import legendre as L
 
 from ..model import VibroImpactSystem
-from ..orbits import orbit_nodes, require_single_well
+from .._checks import check_system
+from ..budget import enforce
+from ..orbits import orbit_nodes
 from ..solution import Solution
-from .coefficients import _check_int, _gl, _panel_nodes, _rate
+from .coefficients import _gl, _panel_nodes, _rate
+from .options import Options
 
 __all__ = ["stationary", "AveragedSolution"]
 
@@ -267,11 +270,16 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
     Gibbs solution (r = 1, D2 = 0) to ~1e-13 relative, and T, m, σ² with adaptive
     quadrature to ~1e-13 (tests/test_averaging.py).
     """
-    require_single_well(system)
-    n_theta = _check_int("n_theta", n_theta, 4, 2000)
-    n_panel = _check_int("n_panel", n_panel, 4, 200)
-    if isinstance(phi_cut, bool) or not isinstance(phi_cut, (int, float)) or not 10 <= phi_cut <= 700:
-        raise ValueError(f"averaging: phi_cut must be a number in [10, 700]; got {phi_cut!r}")
+    check_system("averaging.stationary", system)
+    opts = Options.from_call("stationary", locals())
+    opts.validate_for(system, "stationary", probe=False)
+    enforce(opts.estimate(system, "stationary"), "averaging.stationary")
+    return solve(system, opts)
+
+
+def solve(system: VibroImpactSystem, opts: Options) -> AveragedSolution:
+    """The closed form of :func:`stationary` for validated ``opts``."""
+    n_theta, n_panel, phi_cut = opts.n_theta, opts.n_panel, opts.phi_cut
     a, b, c = system.a, system.b, system.c
     Hb = system.barrier_energy
     A_max = system.delta if system.has_barrier else np.inf

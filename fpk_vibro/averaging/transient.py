@@ -24,9 +24,12 @@ from scipy import integrate, sparse, special
 from ..initial import InitialCondition, parse_initial, parse_times
 from ..model import VibroImpactSystem
 from ..orbits import orbit_nodes
-from .coefficients import _check_int, _rate, coefficients
+from .._checks import check_system
+from ..budget import enforce
+from .coefficients import _rate, coefficients
 from .grid_solution import EnergyGridSolution
-from .stationary import AveragedSolution, stationary
+from .options import Options
+from .stationary import AveragedSolution, solve
 
 __all__ = ["transient", "energy_faces", "averaged_operator", "initial_cell_masses"]
 
@@ -102,7 +105,8 @@ def initial_cell_masses(init: InitialCondition, faces: np.ndarray, *, n_samples:
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
               n_cells: int = 400, H_max: float | None = None, rtol: float = 1e-8,
-              seed: int = 0) -> list[EnergyGridSolution]:
+              seed: int = 0, n_theta: int = 48, n_panel: int = 24,
+              phi_cut: float = 60.0) -> list[EnergyGridSolution]:
     """Solve the averaged FPK for p(H, t) from ``initial``; one solution per time.
 
     Parameters
@@ -124,25 +128,27 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         Relative tolerance of the Radau time integration.
     seed : int
         Seed for histogramming a sampler callable.
+    n_theta, n_panel, phi_cut
+        Of the stationary density that writes the flux (:func:`stationary`).
 
     Returns
     -------
     list of EnergyGridSolution
         Each with ``.time``, ``.mass`` (1 to round-off) and the Solution interface.
     """
+    check_system("averaging.transient", system)
+    opts = Options.from_call("transient", locals())
     init = parse_initial(initial, system)
     t_out = parse_times(times, "averaging.transient", increasing=False)
-    n_cells = _check_int("n_cells", n_cells, 16, 200_000)
-    if not (isinstance(rtol, (int, float)) and 1e-13 <= rtol <= 1e-2):
-        raise ValueError(f"averaging.transient: rtol must be in [1e-13, 1e-2]; got {rtol!r}")
-    st = stationary(system)
+    opts.validate_for(system, "transient", probe=False)
+    enforce(opts.estimate(system, "transient", t_out), "averaging.transient")
+    n_cells, H_max, rtol, seed = opts.n_cells, opts.H_max, opts.rtol, opts.seed
+    st = solve(system, opts)
     if H_max is None:
         H_max = _energy_at_phi(st, 40.0)
         if init.is_gaussian:
             (mx, my), (sx, sy) = init.mean, init.std
             H_max = max(H_max, float(system.energy(abs(mx) + 10 * sx, abs(my) + 10 * sy)))
-    elif not (isinstance(H_max, (int, float)) and math.isfinite(H_max) and H_max > 0):
-        raise ValueError(f"averaging.transient: H_max must be a finite number > 0; got {H_max!r}")
     faces = energy_faces(system, float(H_max), n_cells)
     mass0 = initial_cell_masses(init, faces, seed=seed)
     if mass0.sum() < 1 - 1e-6:

@@ -40,102 +40,44 @@ Measured (exact case r = 1, D2 = 0, paper a, b, c, D1, Δ; ny = 4 nx)
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 import skfem
 
-from .._checks import check_float, check_int
+from .._checks import check_system
+from ..budget import enforce
 from ..model import VibroImpactSystem
 from .generator import (assemble, assemble_tensor, element_for, mesh_domain,
                        quadrature_order, tensor_index)
 from .mesh import Domain, default_y_max, domain, load_mesh, structured_mesh
+from .options import DEFAULT_NX, POSITIVITY, TENSOR_ONLY, Options, load_strip_mesh
 from .solution import FEMSolution
 from .solve import SOLVERS, solve_stationary
 
-__all__ = ["stationary", "FEMSolution", "assemble", "assemble_tensor", "domain",
+__all__ = ["stationary", "Options", "FEMSolution", "assemble", "assemble_tensor", "domain",
            "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS"]
 
-#: String values of ``positivity`` (True means "quick").
-POSITIVITY = ("quick", "van-albada", "first-order", "upwind", "afc")
-_TENSOR_ONLY = (True, "quick", "van-albada", "first-order")
 
-#: Default number of cells across the strip in x, per degree.
-DEFAULT_NX = {1: 128, 2: 48}
-
-
-def _int_param(name: str, value, minimum: int, even: bool = False) -> int:
-    check_int(name, value, minimum)
-    if even and value % 2:
-        raise ValueError(f"{name} must be even (y = 0 must be a mesh line); got {value!r}")
-    return int(value)
-
-
-def _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
-              positivity, assembly) -> None:
-    if not isinstance(system, VibroImpactSystem):
-        raise ValueError(f"system must be a VibroImpactSystem; got {type(system).__name__}")
-    if isinstance(degree, bool) or degree not in (1, 2):
-        raise ValueError(f"degree must be 1 or 2; got {degree!r}")
-    if solver not in SOLVERS:
-        raise ValueError(f"solver must be one of {SOLVERS}; got {solver!r}")
-    if element not in ("quad", "tri"):
-        raise ValueError(f"element must be 'quad' or 'tri'; got {element!r}")
-    if assembly not in ("auto", "tensor", "general"):
-        raise ValueError(f"assembly must be 'auto', 'tensor' or 'general'; got {assembly!r}")
-    if not (isinstance(positivity, bool) or positivity in POSITIVITY):
-        raise ValueError(f"positivity must be False, True or one of {POSITIVITY}; "
-                         f"got {positivity!r}")
-    if positivity and degree != 1:
-        raise ValueError("positivity=True needs degree=1 (Q1/P1 basis functions are "
-                         "non-negative; Q2/P2 are not)")
-    check_float("grading", grading, 0.0, lo_open=False)
-    if mesh is not None:
-        if not isinstance(mesh, (skfem.Mesh, str, Path)):
-            raise ValueError(f"mesh must be a skfem.Mesh or a path; got {type(mesh).__name__}")
-        for name, v in (("nx", nx), ("ny", ny), ("y_max", y_max)):
-            if v is not None:
-                raise ValueError(f"{name} must be None when a mesh is given (the mesh fixes it)")
-        if isinstance(mesh, (str, Path)) and not Path(mesh).exists():
-            raise ValueError(f"mesh: file {str(mesh)!r} does not exist")
-        if assembly == "tensor":
-            raise ValueError("assembly='tensor' needs the built-in structured mesh (mesh=None)")
-        if positivity in _TENSOR_ONLY:
-            raise ValueError(f"positivity={positivity!r} needs the built-in structured "
-                             "quadrilateral mesh (mesh=None); use 'upwind' or 'afc' on "
-                             "a loaded mesh")
-        return
-    if nx is not None:
-        _int_param("nx", nx, 2)
-    if ny is not None:
-        _int_param("ny", ny, 2, even=True)
-    if y_max is not None:
-        check_float("y_max", y_max, 0.0)
-    elif system.c == 0:
-        raise ValueError("y_max must be given when c = 0 (no Gibbs tail bound; "
-                         "all dissipation comes from impacts)")
-    if assembly == "tensor" and element != "quad":
-        raise ValueError("assembly='tensor' needs element='quad'")
-    if positivity in _TENSOR_ONLY and (element != "quad" or assembly == "general"):
-        raise ValueError(f"positivity={positivity!r} needs element='quad' and tensor "
-                         "assembly (a tensor grid); use 'upwind' or 'afc' otherwise")
-
-
-def default_mesh(system: VibroImpactSystem, nx: int | None, ny: int | None,
-                 y_max: float | None, degree: int, element: str, grading: float):
-    """(domain, mesh, x-nodes, y-nodes) of the structured default mesh.
+def default_mesh(system: VibroImpactSystem, opts: Options):
+    """(domain, mesh, x-nodes, y-nodes) of the structured mesh of ``opts``.
 
     ``nx`` defaults to :data:`DEFAULT_NX`; ``ny`` to the even number giving cells
     with h_y ≈ 1.5 h_x, at most 4 nx (a narrow strip, e.g. Δ = 0.05, would
     otherwise get ~10⁶ cells in y for nothing).
     """
-    dom = domain(system, y_max)
-    nx = DEFAULT_NX[degree] if nx is None else int(nx)
-    if ny is None:
-        ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
-        ny = max(2, 2 * int(round(0.5 * nx * min(ratio, 4.0))))
-    m, xs, ys = structured_mesh(dom, nx, ny, kind=element, grading=float(grading))
+    dom, nx, ny = opts.grid(system)
+    m, xs, ys = structured_mesh(dom, nx, ny, kind=opts.element, grading=float(opts.grading))
     return dom, m, xs, ys
+
+
+def prepare(system: VibroImpactSystem, mode: str, values: dict) -> Options:
+    """Validated options of a solver call (its ``locals()``), refused beyond the budget."""
+    where = f"fem.{mode}"
+    check_system(where, system)
+    opts = Options.from_call(mode, values)
+    opts.validate_for(system, mode)
+    enforce(opts.estimate(system, mode, values.get("times")), where)
+    return opts
 
 
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
@@ -157,9 +99,8 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         Cells across x and y (``ny`` even).  Default ``nx`` = 128 (Q1) / 48 (Q2),
         ``ny`` the even number giving cells with h_y ≈ 1.5 h_x, at most 4 nx.
     y_max : float, optional
-        Truncation |y| < y_max; default from the averaged energy tail (mass beyond
-        < 1e-8, :func:`fpk_vibro.fem.mesh.domain`), or the Gibbs-tail rule where
-        averaging does not apply.
+        Truncation |y| < y_max; default from the energy tail (mass beyond < 1e-8,
+        :func:`fpk_vibro.fem.mesh.domain`, :mod:`fpk_vibro.scales`).
     degree : {1, 2}
         Q1/P1 or Q2/P2 Lagrange elements.
     solver : {"auto", "direct", "amg", "amg-sa"}
@@ -196,19 +137,23 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     Raises
     ------
     ValueError
-        Naming the offending parameter, before any work.
+        Naming the offending parameter, before any work; also when the estimated
+        memory or run time is beyond the machine (:mod:`fpk_vibro.budget`).
+
+    Notes
+    -----
+    Every option is declared once in :class:`fpk_vibro.fem.Options`.
     """
-    _validate(system, mesh, nx, ny, y_max, degree, solver, element, grading,
-              positivity, assembly)
+    opts = prepare(system, "stationary", locals())
+    degree, solver, positivity = opts.degree, opts.solver, opts.positivity
     t0 = time.perf_counter()
     tensor = None
-    if mesh is None:
-        dom, m, xs, ys = default_mesh(system, nx, ny, y_max, degree, element, grading)
-        if element == "quad" and assembly != "general":
+    if opts.mesh is None:
+        dom, m, xs, ys = default_mesh(system, opts)
+        if opts.element == "quad" and opts.assembly != "general":
             tensor = (xs, ys)
     else:
-        m = load_mesh(mesh) if isinstance(mesh, (str, Path)) else mesh
-        element_for(m, degree)
+        m = load_strip_mesh(system, opts.mesh, "fem.stationary")
         dom = mesh_domain(system, m)
     if tensor is not None:
         op = assemble_tensor(system, tensor[0], tensor[1], degree, dom)
@@ -221,7 +166,7 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         ranks = None
     t_asm = time.perf_counter() - t0
     afc_info = {}
-    if positivity in _TENSOR_ONLY:
+    if positivity in TENSOR_ONLY:
         from .positivity import stationary_positive
         p, sinfo, afc_info = stationary_positive(
             system, tensor[0], tensor[1], dom.walls, limit=positivity != "first-order",
@@ -250,6 +195,6 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                        tensor=tensor, mass=mass)
 
 
-from .transient import relaxation_time, transient  # noqa: E402  (uses DEFAULT_NX, _validate)
+from .transient import relaxation_time, transient  # noqa: E402  (uses prepare)
 
 __all__ += ["transient", "relaxation_time"]

@@ -36,19 +36,17 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import skfem
 
-from .._checks import check_float, invalid
+from .. import scales
+from .._checks import check_float
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from ..solution import Solution
 from .generator import assemble, assemble_tensor, element_for, quadrature_order, tensor_index
-from .mesh import load_mesh
+from .options import load_strip_mesh
 from .solution import FEMSolution
 
 __all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
 
-SCHEMES = ("bdf2", "theta", "euler")
-#: ``positivity`` values of the transient (those of the tensor-grid generator).
-POSITIVITY = (True, "quick", "van-albada", "first-order")
 #: Local L1 error per step of the adaptive default (``dt`` and ``tol`` not given).
 DEFAULT_TOL = 1e-5
 
@@ -81,32 +79,30 @@ class Discretisation:
                            info=info, tensor=self.tensor, mass=float(self.unit @ p))
 
 
-def _check_positivity(positivity: Any) -> None:
-    if not (positivity is False or positivity in POSITIVITY):
-        raise invalid("fem.transient", "positivity", f"False, True or one of {POSITIVITY[1:]}",
-                      positivity)
-
-
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                element: str = "quad", grading: float = 0.0,
                positivity: bool | str = False) -> Discretisation:
     """Build the mesh and assemble (L, M) exactly as :func:`stationary` does; with
     ``positivity`` (see the module docstring) the positive generator and the
-    lumped masses instead."""
-    from . import _validate, default_mesh
-    _check_positivity(positivity)
-    _validate(system, mesh, nx, ny, y_max, degree, "auto", element, grading, positivity,
-              "auto")
-    if mesh is None:
-        dom, m, xs, ys = default_mesh(system, nx, ny, y_max, degree, element, grading)
+    lumped masses instead.  Options as in :class:`fpk_vibro.fem.Options`."""
+    from . import prepare
+    return build(system, prepare(system, "transient", locals()))
+
+
+def build(system: VibroImpactSystem, opts: Any) -> Discretisation:
+    """The :class:`Discretisation` of validated options ``opts``."""
+    from . import default_mesh
+    positivity, degree = opts.positivity, opts.degree
+    if opts.mesh is None:
+        dom, m, xs, ys = default_mesh(system, opts)
         if positivity:
             from .positivity import positive_generator
             A, unit = positive_generator(system, xs, ys, dom.walls)
             pts = np.stack(np.meshgrid(xs, ys, indexing="ij")).reshape(2, -1)
             return Discretisation(system, m, 1, A.tocsr(), sp.diags(unit).tocsr(), unit,
                                   None, (xs, ys), pts, positivity, dom.walls)
-        if element == "quad":
+        if opts.element == "quad":
             op = assemble_tensor(system, xs, ys, degree, dom)
             order = None
             if degree == 2:
@@ -116,8 +112,7 @@ def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                                        indexing="ij")).reshape(2, -1)
             return Discretisation(system, m, degree, op.L, op.M, op.unit, order, (xs, ys), pts)
     else:
-        m = mesh if isinstance(mesh, skfem.Mesh) else load_mesh(mesh)
-        element_for(m, degree)
+        m = load_strip_mesh(system, opts.mesh, "fem.transient")
     basis = skfem.CellBasis(m, element_for(m, degree), intorder=quadrature_order(degree))
     L, M = assemble(system, basis)
     return Discretisation(system, m, degree, L, M, np.asarray(M.sum(axis=0)).ravel(), None,
@@ -150,9 +145,8 @@ def _initial_vector(disc: Discretisation, initial: Any) -> np.ndarray:
 
 
 def default_dt(system: VibroImpactSystem) -> float:
-    """A twentieth of the small-oscillation period at the barrier: 2π/(20 ω0)."""
-    X = system.delta if system.has_barrier else 1.0
-    return 2.0 * math.pi / (20.0 * math.sqrt(abs(system.a) + abs(system.b) * X * X + 1e-12))
+    """A twentieth of the system's period T0 (:func:`fpk_vibro.scales.period`)."""
+    return scales.period(system) / 20.0
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
@@ -160,7 +154,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               ny: int | None = None, degree: int = 1, mesh=None, y_max: float | None = None,
               theta: float = 0.5, tol: float | None = None, progress: bool | None = None,
               discretisation: Discretisation | None = None,
-              positivity: bool | str = False) -> list[FEMSolution]:
+              positivity: bool | str = False, element: str = "quad",
+              grading: float = 0.0) -> list[FEMSolution]:
     """Densities at ``times`` from ``initial`` (DESIGN §3 transient).
 
     Parameters
@@ -182,7 +177,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     scheme : {"bdf2", "theta", "euler"}, optional
         Default "bdf2"; with ``positivity`` only "euler" (or "theta" with θ = 1),
         which is the default then.
-    nx, ny, degree, mesh, y_max
+    nx, ny, degree, mesh, y_max, element, grading
         As in :func:`fpk_vibro.fem.stationary`.
     theta : float
         θ of the θ-scheme, in [1/2, 1].
@@ -212,42 +207,21 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         interrupted (Ctrl-C) the finished ones, each with ``partial=True`` in
         ``info``.
     """
+    from . import prepare
     t_out = parse_times(times, "fem.transient")
-    if discretisation is not None:
-        same = {positivity, discretisation.positivity} <= {True, "quick"}
-        if positivity and positivity != discretisation.positivity and not same:
-            raise ValueError(f"fem.transient: positivity={positivity!r} differs from the "
-                             f"discretisation's ({discretisation.positivity!r}); build it "
-                             "with discretise(..., positivity=...)")
-        positivity = discretisation.positivity
-    else:
-        _check_positivity(positivity)
+    opts = prepare(system, "transient", {**locals(), "times": t_out})
+    if opts.discretisation is not None:
+        positivity = opts.discretisation.positivity
+    scheme, theta, tol, dt = opts.scheme, opts.theta, opts.tol, opts.dt
     if scheme is None:
         scheme = "euler" if positivity else "bdf2"
-    if scheme not in SCHEMES:
-        raise ValueError(f"fem.transient: scheme must be one of {SCHEMES}; got {scheme!r}")
-    check_float("theta", theta, 0.5, 1.0, lo_open=False, where="fem.transient")
     if scheme == "euler":
         scheme, theta = "theta", 1.0
-    if positivity and (scheme != "theta" or theta != 1):
-        raise ValueError(f"fem.transient: positivity needs implicit Euler (scheme='euler'); "
-                         f"got scheme={scheme!r}, theta={theta!r} — BDF2 and θ < 1 do not "
-                         "keep p >= 0")
-    if positivity and tol is not None:
-        raise ValueError("fem.transient: tol (adaptive BDF2 steps) cannot be combined with "
-                         "positivity (implicit Euler, fixed steps)")
-    if tol is not None:
-        check_float("tol", tol, 1e-14, 1.0, lo_open=False, where="fem.transient")
-        if scheme != "bdf2":
-            raise ValueError("fem.transient: tol (adaptive steps) needs scheme='bdf2'")
     if dt is None:
         dt = default_dt(system)
         if tol is None and scheme == "bdf2":
             tol = DEFAULT_TOL          # no step given: adaptive steps by default
-    else:
-        check_float("dt", dt, 0.0, where="fem.transient")
-    disc = discretisation or discretise(system, mesh=mesh, nx=nx, ny=ny, y_max=y_max,
-                                        degree=degree, positivity=positivity)
+    disc = opts.discretisation or build(system, opts)
     p = _initial_vector(disc, initial)
     M, L = disc.M.tocsc(), disc.L.tocsc()
     lu_cache: dict[tuple[float, float], Any] = {}
@@ -377,8 +351,7 @@ def relaxation_time(system: VibroImpactSystem, *, tol: float = 1e-3,
     dict with ``rate`` (λ1), ``time`` (ln(1/tol)/λ1) and ``eigenvalues`` (the few
     computed, sorted by |Re|).
     """
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1:
-        raise ValueError(f"relaxation_time: tol must be a float in (0, 1); got {tol!r}")
+    check_float("tol", tol, 0.0, 1.0, hi_open=True, where="fem.relaxation_time")
     disc = discretisation or discretise(system, **mesh_kw)
     sigma = -1e-6
     vals = spla.eigs(disc.L.tocsc(), k=6, M=disc.M.tocsc(), sigma=sigma,

@@ -98,6 +98,7 @@ measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
   cold numba cache (5.5–8.3 s wall with interpreter start), 1.4–2.4 s warm.
 """
 from ._engine import TransientRun, stationary, transient
+from .options import Options
 from .solution import QUANTITIES, MonteCarloSolution
 
-__all__ = ["stationary", "transient", "MonteCarloSolution", "TransientRun", "QUANTITIES"]
+__all__ = ["Options", "stationary", "transient", "MonteCarloSolution", "TransientRun", "QUANTITIES"]

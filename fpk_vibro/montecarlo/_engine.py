@@ -8,10 +8,13 @@ from typing import Any
 
 import numpy as np
 
+from .._checks import check_system
+from ..budget import enforce
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from . import _kernel as K
 from . import _setup as S
+from .options import Options
 from .solution import QUANTITIES, MonteCarloSolution
 
 SCHEME = "BAOAB splitting, impacts located exactly in the free-flight sub-steps"
@@ -76,6 +79,16 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
         x_seen=[float(xext[:, 0].min()), float(xext[:, 1].max())],
         scheme=SCHEME, dt=float(dt))
     return MonteCarloSolution(system, meta, arrays)
+
+
+def _prepare(system: VibroImpactSystem, mode: str, values: dict[str, Any]) -> Options:
+    """Validated options of a call (its ``locals()``), refused beyond the budget."""
+    where = f"montecarlo.{mode}"
+    check_system(where, system)
+    opts = Options.from_call(mode, values)
+    opts.validate_for(system, mode)
+    enforce(opts.estimate(system, mode, values.get("times")), where)
+    return opts
 
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
@@ -175,33 +188,16 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         For an invalid argument (naming it, the allowed range and the value),
         before any simulation.
     """
-    F = "stationary"
-    system = S.check_system(F, system)
-    n_paths = S.check_int(F, "n_paths", n_paths, 2, 10**9)
-    n_batches = S.check_int(F, "n_batches", n_batches, 2, n_paths)
-    if t_sample is not None:
-        t_sample = S.check_float(F, "t_sample", t_sample, 0.0)
-    target_rse = S.check_float(F, "target_rse", target_rse, 0.0, 1.0, hi_open=True)
-    if dt is None:
-        dt = S.default_dt(system, None if t_sample is not None else target_rse)
-    dt = S.check_dt(F, system, dt)
-    lam = S.relaxation_rate(system)
-    t_burn = S.default_t_burn(system) if t_burn is None else \
-        S.check_float(F, "t_burn", t_burn, 0.0, lo_open=False)
-    max_t_sample = 1e4 / lam if max_t_sample is None else \
-        S.check_float(F, "max_t_sample", max_t_sample, 0.0)
-    ss = S.check_seed(F, seed)
-    quantities = S.check_quantities(F, quantities)
-    bins = S.check_bins(F, bins)
-    sample_every = S.default_sample_every(system, dt) if sample_every is None else \
-        S.check_int(F, "sample_every", sample_every, 1)
-    max_impacts = S.check_int(F, "max_impacts", max_impacts, 1, 10**6)
-    threads = None if threads is None else S.check_int(F, "threads", threads, 1)
-    t_min = sample_every * dt
-    for name, val in (("t_sample", t_sample), ("max_t_sample", max_t_sample)):
-        if val is not None and val < t_min * (1 - 1e-9):
-            raise S.fail(F, name, f">= one sampling interval sample_every*dt = {t_min:.6g}",
-                         val)
+    opts = _prepare(system, "stationary", locals())
+    r = opts.resolved(system, "stationary")
+    n_paths, n_batches, t_sample, target_rse = (opts.n_paths, opts.n_batches, opts.t_sample,
+                                                opts.target_rse)
+    dt, lam, t_burn, max_t_sample, sample_every = (r["dt"], r["lam"], r["t_burn"],
+                                                   r["max_t_sample"], r["sample_every"])
+    ss = S.seed_sequence(opts.seed)
+    quantities, max_impacts, threads = opts.quantities, opts.max_impacts, opts.threads
+    bins = S.check_bins("bins", opts.bins, None)
+    progress = opts.progress
 
     children = ss.spawn(n_batches + 1)
     rng = S.rng_states(children[:n_batches])
@@ -304,17 +300,13 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         ``impact_rate`` over the interval ending there); ``partial`` True and
         fewer entries if interrupted by Ctrl-C.
     """
-    F = "transient"
-    system = S.check_system(F, system)
-    tarr = parse_times(times, f"montecarlo.{F}")
-    n_paths = S.check_int(F, "n_paths", n_paths, 2, 10**9)
-    n_batches = S.check_int(F, "n_batches", n_batches, 2, n_paths)
-    dt = S.check_dt(F, system, S.default_dt(system) if dt is None else dt)
-    ss = S.check_seed(F, seed)
-    quantities = S.check_quantities(F, quantities)
-    bins = S.check_bins(F, bins)
-    max_impacts = S.check_int(F, "max_impacts", max_impacts, 1, 10**6)
-    threads = None if threads is None else S.check_int(F, "threads", threads, 1)
+    tarr = parse_times(times, "montecarlo.transient")
+    opts = _prepare(system, "transient", {**locals(), "times": tarr})
+    n_paths, n_batches, dt = opts.n_paths, opts.n_batches, opts.resolved(system, "transient")["dt"]
+    ss = S.seed_sequence(opts.seed)
+    quantities, max_impacts, threads = opts.quantities, opts.max_impacts, opts.threads
+    bins = S.check_bins("bins", opts.bins, None)
+    progress = opts.progress
     init = parse_initial(initial, system)
 
     children = ss.spawn(n_batches + 1)

@@ -11,6 +11,8 @@ import numpy as np
 
 from .. import _checks
 from ..model import VibroImpactSystem
+from ..scales import (amplitude_scale, energy_scale, period, potential_min,  # noqa: F401
+                      relaxation_rate)
 from . import _kernel as K
 from .solution import QUANTITIES
 
@@ -21,147 +23,87 @@ def fail(func: str, name: str, allowed: str, value: Any) -> ValueError:
     return _checks.invalid(f"montecarlo.{func}", name, allowed, value)
 
 
-def check_int(func: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
-    return _checks.check_int(name, value, lo, hi, where=f"montecarlo.{func}")
-
-
-def check_float(func: str, name: str, value: Any, lo: float, hi: float = math.inf,
-                lo_open: bool = True, hi_open: bool = False) -> float:
-    return _checks.check_float(name, value, lo, hi, lo_open=lo_open, hi_open=hi_open,
-                               where=f"montecarlo.{func}")
-
-
-def check_system(func: str, system: Any) -> VibroImpactSystem:
-    if not isinstance(system, VibroImpactSystem):
-        raise fail(func, "system", "a VibroImpactSystem", system)
-    return system
-
-
-def check_quantities(func: str, quantities: Any) -> tuple[str, ...]:
+def check_quantities(name: str, quantities: Any, where: str | None) -> tuple[str, ...]:
     if isinstance(quantities, str):
         quantities = (quantities,)
     try:
         qs = tuple(quantities)
     except TypeError:
-        raise fail(func, "quantities", f"a sequence of names from {QUANTITIES}",
-                   quantities) from None
-    bad = [q for q in qs if q not in QUANTITIES]
+        raise _checks.invalid(where, name, f"a sequence of names from {QUANTITIES}",
+                              quantities) from None
+    bad = [q for q in qs if not isinstance(q, str) or q not in QUANTITIES]
     if bad or len(set(qs)) != len(qs):
-        raise fail(func, "quantities", f"distinct names from {QUANTITIES}", quantities)
+        raise _checks.invalid(where, name, f"distinct names from {QUANTITIES}", quantities)
     return tuple(q for q in QUANTITIES if q in qs)
 
 
-def check_seed(func: str, seed: Any) -> np.random.SeedSequence:
+def check_seed(name: str, seed: Any, where: str | None) -> int | np.random.SeedSequence:
+    """An int in [0, 2⁶³) or a SeedSequence (None is drawn by :func:`seed_sequence`)."""
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    return _checks.check_int(name, seed, 0, 2 ** 63 - 1, where=where)
+
+
+def seed_sequence(seed: int | np.random.SeedSequence | None) -> np.random.SeedSequence:
+    """The SeedSequence of a checked seed; None draws a fresh 63-bit seed, so the
+    entropy recorded in the result can be given back as ``seed`` (a scene's integer)."""
     if isinstance(seed, np.random.SeedSequence):
         return seed
     if seed is None:
-        return np.random.SeedSequence()
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise fail(func, "seed", "None, an integer >= 0 or a numpy SeedSequence", seed)
-    return np.random.SeedSequence(int(seed))
+        seed = int(np.random.SeedSequence().entropy) % 2 ** 63
+    return np.random.SeedSequence(seed)
 
 
-def _edges_or_count(func: str, name: str, v: Any) -> int | np.ndarray:
+def _edges_or_count(where: str | None, name: str, v: Any) -> int | np.ndarray:
     if isinstance(v, numbers.Integral) and not isinstance(v, bool):
-        return check_int(func, f"bins[{name!r}]", v, 1, 100_000)
-    arr = np.asarray(v, dtype=float) if not isinstance(v, (str, bytes)) else np.array([])
-    if arr.ndim != 1 or arr.size < 2 or not np.all(np.isfinite(arr)) or \
+        return _checks.check_int(name, v, 1, 100_000, where=where)
+    allowed = "a bin count in [1, 100000] or increasing, equally spaced finite edges"
+    if isinstance(v, (str, bytes, dict)):
+        raise _checks.invalid(where, name, allowed, v)
+    try:
+        arr = np.asarray(v, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise _checks.invalid(where, name, allowed, v) from None
+    if arr.ndim != 1 or not 2 <= arr.size <= 100_001 or not np.all(np.isfinite(arr)) or \
             not np.all(np.diff(arr) > 0):
-        raise fail(func, f"bins[{name!r}]", "a bin count >= 1 or increasing finite "
-                   "edges (>= 2 values)", v)
+        raise _checks.invalid(where, name, allowed, v)
     w = np.diff(arr)
     if not np.allclose(w, w[0], rtol=1e-9, atol=0):
-        raise fail(func, f"bins[{name!r}]", "equally spaced edges (the kernel bins "
-                   "uniformly)", v)
+        raise _checks.invalid(where, name, allowed, v, "the kernel bins uniformly")
     return arr
 
 
-def check_bins(func: str, bins: Any) -> dict[str, Any]:
+def check_bins(name: str, bins: Any, where: str | None) -> dict[str, Any]:
     """bins: int n (n bins for energy, x, y; n//2 per axis for joint) or a dict."""
     if isinstance(bins, numbers.Integral) and not isinstance(bins, bool):
-        n = check_int(func, "bins", bins, 2, 100_000)
+        n = _checks.check_int(name, bins, 2, 100_000, where=where)
         return {"energy": n, "x": n, "y": n, "joint": (max(n // 2, 1),) * 2}
     if not isinstance(bins, dict):
-        raise fail(func, "bins", "an integer >= 2 or a dict {quantity: count or edges}",
-                   bins)
-    unknown = set(bins) - set(QUANTITIES)
+        raise _checks.invalid(where, name, "an integer in [2, 100000] or a table "
+                              "{quantity: count or edges}", bins)
+    unknown = [k for k in bins if k not in QUANTITIES]
     if unknown:
-        raise fail(func, "bins keys", f"names from {QUANTITIES}", sorted(unknown))
-    out = check_bins(func, 100)
+        raise _checks.invalid(where, f"{name} keys", f"names from {QUANTITIES}", unknown)
+    out = check_bins(name, 100, where)
     for k, v in bins.items():
         if k == "joint":
             if isinstance(v, numbers.Integral) and not isinstance(v, bool):
                 v = (v, v)
             if not (isinstance(v, (tuple, list)) and len(v) == 2):
-                raise fail(func, "bins['joint']", "a count, or a pair (x bins, y bins) "
-                           "of counts or edges", v)
-            out[k] = (_edges_or_count(func, "joint x", v[0]),
-                      _edges_or_count(func, "joint y", v[1]))
+                raise _checks.invalid(where, f"{name}['joint']", "a count, or a pair (x "
+                                      "bins, y bins) of counts or edges", v)
+            out[k] = (_edges_or_count(where, f"{name}['joint'][0]", v[0]),
+                      _edges_or_count(where, f"{name}['joint'][1]", v[1]))
         else:
-            out[k] = _edges_or_count(func, k, v)
+            out[k] = _edges_or_count(where, f"{name}[{k!r}]", v)
     return out
 
 
-# -- time scales --------------------------------------------------------------------
-def _omega_lin(system: VibroImpactSystem) -> float:
-    """sqrt(|a| + |b| Δ²) (or (D1/Δ²)^(1/3) for a free particle between barriers)."""
-    d = system.delta if system.has_barrier else 1.0
-    w2 = abs(system.a) + abs(system.b) * d * d
-    return math.sqrt(w2) if w2 > 0 else (system.D1 / (d * d)) ** (1.0 / 3.0)
+def bin_count(spec: Any) -> int:
+    return spec if isinstance(spec, int) else int(np.asarray(spec).size - 1)
 
 
-def _rate0(system: VibroImpactSystem) -> float:
-    """c, or with c = 0 (inelastic barrier required) (1 − r²) ω_lin/2π."""
-    if system.c > 0:
-        return system.c
-    return (1.0 - system.r ** 2) * _omega_lin(system) / (2.0 * math.pi)
-
-
-def energy_scale(system: VibroImpactSystem) -> float:
-    """Rough stationary E[H] scale D1/λ0 (initial states and length scales only)."""
-    return system.D1 / _rate0(system)
-
-
-def amplitude_scale(system: VibroImpactSystem, n_scales: float = 5.0) -> float:
-    """Amplitude at ``n_scales`` energy scales, capped by Δ with two barriers."""
-    A = float(system.amplitude(n_scales * energy_scale(system)))
-    if not math.isfinite(A):
-        A = system.delta if system.has_barrier else 1.0
-    return min(A, system.delta) if system.barriers == "both" else A
-
-
-def length_scale(system: VibroImpactSystem) -> float:
-    """Typical amplitude X of the motion (5 energy scales, at most Δ)."""
-    return amplitude_scale(system, 5.0)
-
-
-def omega0(system: VibroImpactSystem) -> float:
-    """Reference angular frequency sqrt(|a| + |b| X²), X = :func:`length_scale`."""
-    X = length_scale(system)
-    w2 = abs(system.a) + abs(system.b) * X * X
-    if w2 > 0:
-        return math.sqrt(w2)
-    return _omega_lin(system)
-
-
-def period(system: VibroImpactSystem) -> float:
-    """Reference period T0 = 2π/ω0 of the smooth motion."""
-    return 2.0 * math.pi / omega0(system)
-
-
-def relaxation_rate(system: VibroImpactSystem) -> float:
-    """Slowest energy relaxation rate estimate λ (DESIGN §2 averaged drift).
-
-    c when c > 0: paths below the barrier energy G(Δ) lose energy only through
-    damping, so they set the slowest time scale.  With c = 0 (allowed only with an
-    inelastic barrier) the impact loss rate (1 − r²)/T0: one impact per period
-    removes the fraction 1 − r² of the kinetic energy at impact.
-    """
-    if system.c > 0:
-        return system.c
-    return (1.0 - system.r ** 2) / period(system)
-
-
+# -- time scales (the system's own: fpk_vibro.scales) ---------------------------------
 #: Target relative SE below which the default dt shrinks (:func:`default_dt`).
 DT_RSE = 1e-3
 
@@ -198,15 +140,12 @@ def default_sample_every(system: VibroImpactSystem, dt: float) -> int:
     return max(1, round(period(system) / (4.0 * dt)))
 
 
-def check_dt(func: str, system: VibroImpactSystem, dt: Any) -> float:
-    dt = check_float(func, "dt", dt, 0.0)
+def dt_limit(system: VibroImpactSystem) -> float:
+    """1/ω_max, ω_max² = |a| + 3|b| X², X at 30 energy scales: beyond it the explicit
+    splitting loses stability."""
     X = amplitude_scale(system, 30.0)
     wmax = math.sqrt(abs(system.a) + 3.0 * abs(system.b) * X * X)
-    limit = 1.0 / wmax if wmax > 0 else math.inf
-    if dt > limit:
-        raise fail(func, "dt", f"in (0, {limit:.4g}] (1/ω_max, ω_max² = |a| + 3|b| X², "
-                   f"X = {X:.4g}: beyond it the explicit splitting loses stability)", dt)
-    return dt
+    return 1.0 / wmax if wmax > 0 else math.inf
 
 
 # -- kernel set-up ------------------------------------------------------------------
@@ -241,20 +180,6 @@ def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
     ip[K.I_D2] = 1 if system.D2 > 0 else 0
     ip[K.I_MAXK] = max_impacts
     return p, ip
-
-
-def potential_min(system: VibroImpactSystem) -> float:
-    """min G over the strip (0 unless a < 0 < b, the double well)."""
-    a, b = system.a, system.b
-    g = 0.0
-    if a < 0 < b:
-        xm2 = -a / b
-        lo, hi = system.x_bounds
-        if xm2 <= max(lo * lo, hi * hi):
-            g = -a * a / (4.0 * b)
-    if system.barriers == "both" and b < 0:
-        g = min(g, float(system.potential(system.delta)))
-    return g
 
 
 class Histograms:

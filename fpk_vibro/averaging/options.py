@@ -1,0 +1,63 @@
+"""The options of the averaging method, declared once (see :mod:`fpk_vibro.options`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .._checks import InputError
+from ..budget import Cost
+from ..model import VibroImpactSystem
+from ..options import Options as _Options
+from ..options import option
+
+__all__ = ["Options"]
+
+S, T = ("stationary",), ("transient",)
+
+
+@dataclass(frozen=True)
+class Options(_Options):
+    """Numerical options of :func:`~fpk_vibro.averaging.stationary` and
+    :func:`~fpk_vibro.averaging.transient`."""
+
+    WHERE = "averaging"
+
+    n_theta: int = option(48, "Gauss–Legendre nodes along each orbit", "int", lo=4, hi=2000)
+    n_panel: int = option(24, "Gauss–Legendre nodes per energy panel", "int", lo=4, hi=200)
+    phi_cut: float = option(60.0, "energies covered until Φ(H) ≥ phi_cut (neglected mass "
+                            "< e^-phi_cut)", "float", lo=10.0, hi=700.0)
+    n_cells: int = option(400, "finite-volume cells in H", "int", lo=16, hi=50_000,
+                          modes=T, reduced=200)
+    H_max: float | None = option(None, "upper end of the energy grid", "float", lo=0.0,
+                                 lo_open=True, unit="J/kg", modes=T,
+                                 auto="where the stationary density is e^-40 of its peak, "
+                                      "or beyond the initial density")
+    rtol: float = option(1e-8, "relative tolerance of the Radau time integration", "float",
+                         lo=1e-13, hi=1e-2, modes=T)
+    seed: int = option(0, "seed for histogramming a sampler initial condition", "int",
+                       lo=0, hi=2 ** 63 - 1, modes=T)
+
+    def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = True) -> None:
+        """The system-dependent checks: one orbit per energy level, and (``probe``) a
+        light tail where a linear spring meets parametric noise on an open side."""
+        from ..orbits import require_single_well
+        try:
+            require_single_well(system)
+            if probe and system.barriers != "both" and system.b == 0 and system.D2 > 0:
+                from .stationary import solve
+                solve(system, self)          # the only case with a power-law tail
+        except InputError:
+            raise
+        except ValueError as exc:
+            msg = str(exc) if str(exc).startswith("averaging") else f"averaging: {exc}"
+            raise InputError(msg, where="averaging", name="system") from None
+
+    def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
+        """Memory and seconds measured on the paper's case (docs/costs.md)."""
+        nodes = self.n_theta * self.n_panel
+        stationary = Cost(60e6 + 400 * nodes * 8 * 12, nodes * 400, "orbit nodes",
+                          0.01 + 0.02 * nodes / (48 * 24), "n_theta")
+        if mode == "stationary":
+            return stationary
+        return Cost(100e6 + 64e3 * self.n_cells, self.n_cells, "cells",
+                    stationary.seconds + 0.1 + 4.5e-4 * self.n_cells, "n_cells")

@@ -1,0 +1,267 @@
+"""The options of the finite-element method, declared once (see :mod:`fpk_vibro.options`).
+
+:meth:`Options.validate_for` holds every rule that joins options to each other or to
+the system (a mesh file is read and checked here), and :meth:`Options.estimate` the
+cost model (constants measured on this machine kind, ``docs/costs.md``).  Both run
+in :func:`~fpk_vibro.fem.stationary`, :func:`~fpk_vibro.fem.transient` and in
+``fpk-vibro check``, so a scene that passes the check passes them in the run.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .._checks import InputError, invalid
+from ..budget import Cost
+from ..model import VibroImpactSystem
+from ..options import Options as _Options
+from ..options import option
+
+__all__ = ["Options", "SOLVERS", "POSITIVITY", "SCHEMES", "DEFAULT_NX", "load_strip_mesh"]
+
+S, T = ("stationary",), ("transient",)
+SOLVERS = ("auto", "direct", "amg", "amg-sa")
+#: positivity values: the tensor-grid generator's (stationary and transient), then
+#: the algebraic ones (stationary, any mesh).
+POSITIVITY = (False, True, "quick", "van-albada", "first-order", "upwind", "afc")
+TENSOR_ONLY = (True, "quick", "van-albada", "first-order")
+SCHEMES = ("bdf2", "theta", "euler")
+#: Default number of cells across the strip in x, per degree.
+DEFAULT_NX = {1: 128, 2: 48}
+
+
+def _mesh(name: str, value: Any, where: str | None) -> Any:
+    import skfem
+    if isinstance(value, skfem.Mesh):
+        return value
+    if isinstance(value, (str, Path)) and str(value).strip():
+        return value
+    raise invalid(where, name, "a skfem.Mesh or a mesh file (any format meshio reads)", value)
+
+
+def _positivity(name: str, value: Any, where: str | None) -> Any:
+    for p in POSITIVITY:
+        if type(value) is type(p) and value == p:
+            return p
+    raise invalid(where, name, f"false, true or one of {list(POSITIVITY[2:])}", value)
+
+
+def _discretisation(name: str, value: Any, where: str | None) -> Any:
+    from .transient import Discretisation
+    if not isinstance(value, Discretisation):
+        raise invalid(where, name, "a Discretisation from fem.transient.discretise", value)
+    return value
+
+
+@dataclass(frozen=True)
+class Options(_Options):
+    """Numerical options of :func:`~fpk_vibro.fem.stationary` and
+    :func:`~fpk_vibro.fem.transient`."""
+
+    WHERE = "fem"
+
+    mesh: Any = option(None, "a mesh of the strip (walls at its x-extremes, symmetric in y, "
+                       "y = 0 a mesh line); in a scene a file relative to it", "custom",
+                       check=_mesh, allowed="a mesh file", scene="file", reduced="drop",
+                       auto="a structured mesh of nx × ny cells")
+    nx: int | None = option(None, "cells across x", "int", lo=2, hi=10 ** 6, reduced=24,
+                            auto="128 (degree 1) or 48 (degree 2)")
+    ny: int | None = option(None, "cells across y (even: y = 0 is a mesh line)", "int",
+                            lo=2, hi=10 ** 6, even=True, reduced=32,
+                            auto="h_y ≈ 1.5 h_x, at most 4 nx")
+    y_max: float | None = option(None, "velocity truncation |y| < y_max", "float", lo=0.0,
+                                 lo_open=True, unit="m/s",
+                                 auto="the energy-tail rule of fpk_vibro.scales (mass "
+                                      "beyond < 1e-8)")
+    degree: int = option(1, "Lagrange degree: 1 (Q1/P1) or 2 (Q2/P2)", "int", lo=1, hi=2)
+    solver: str = option("auto", "linear solver of the stationary system", "choice",
+                         choices=SOLVERS, modes=S)
+    element: str = option("quad", "structured quadrilaterals or triangles", "choice",
+                          choices=("quad", "tri"))
+    grading: float = option(0.0, "clustering of the y-nodes towards y = 0 (sinh map)",
+                            "float", lo=0.0, hi=20.0)
+    positivity: bool | str = option(False, "non-negative discretisation (degree 1): the "
+                                    "positive tensor-grid generator, or algebraic upwinding "
+                                    "/ AFC (stationary, any mesh)", "custom",
+                                    check=_positivity,
+                                    allowed="false, true, \"quick\", \"van-albada\", "
+                                            "\"first-order\", \"upwind\" or \"afc\"")
+    assembly: str = option("auto", "Kronecker-product or general skfem assembly", "choice",
+                           choices=("auto", "tensor", "general"), modes=S)
+    dt: float | None = option(None, "time step (the largest, with adaptive steps)", "float",
+                              lo=0.0, lo_open=True, unit="s", modes=T,
+                              auto="a twentieth of the period T0 (fpk_vibro.scales)")
+    scheme: str | None = option(None, "time scheme", "choice", choices=SCHEMES, modes=T,
+                                auto="bdf2; euler with positivity")
+    theta: float = option(0.5, "θ of the θ-scheme (1/2 Crank–Nicolson, 1 implicit Euler)",
+                          "float", lo=0.5, hi=1.0, modes=T)
+    tol: float | None = option(None, "local L1 error per adaptive BDF2 step", "float",
+                               lo=1e-14, hi=1.0, modes=T,
+                               auto="1e-5 when dt is not given (adaptive), else fixed steps")
+    progress: bool | None = option(None, "a progress line on stderr", "bool", modes=T,
+                                   scene="cli --quiet", auto="when stderr is a terminal")
+    discretisation: Any = option(None, "an assembled mesh and operator to reuse", "custom",
+                                 check=_discretisation, allowed="a Discretisation", modes=T,
+                                 scene="fem.mesh, fem.nx, fem.ny (built from them)",
+                                 auto="built from the mesh options")
+
+    # -- rules joining options ----------------------------------------------------
+    def validate_for(self, system: VibroImpactSystem, mode: str) -> None:
+        """Every rule joining the options to each other and to ``system``."""
+        where = f"fem.{mode}"
+        pos, mesh = self.positivity, self.mesh
+
+        def bad(name: str, msg: str) -> InputError:
+            return InputError(f"{where}: {name} {msg}", where=where, name=name)
+
+        if pos and self.degree != 1:
+            raise bad("positivity", "needs degree = 1 (Q1/P1 basis functions are "
+                      "non-negative; Q2/P2 are not)")
+        if mode == "transient":
+            if pos not in (False,) + TENSOR_ONLY:
+                raise bad("positivity", f"must be false, true, 'quick', 'van-albada' or "
+                          f"'first-order' in a transient; got {pos!r}")
+            scheme = self.scheme or ("euler" if pos else "bdf2")
+            if pos and not (scheme == "euler" or (scheme == "theta" and self.theta == 1)):
+                raise bad("scheme", f"must be 'euler' (or 'theta' with theta = 1) with "
+                          f"positivity: BDF2 and θ < 1 do not keep p >= 0; got scheme = "
+                          f"{scheme!r}, theta = {self.theta}")
+            if self.tol is not None and pos:
+                raise bad("tol", "(adaptive BDF2 steps) cannot be combined with positivity "
+                          "(implicit Euler, fixed steps)")
+            if self.tol is not None and scheme != "bdf2":
+                raise bad("tol", f"(adaptive steps) needs scheme = 'bdf2'; got {scheme!r}")
+            disc = self.discretisation
+            if disc is not None:
+                if disc.system != system:
+                    raise bad("discretisation", "was built for another system")
+                if pos and not {pos, disc.positivity} <= {True, "quick"} \
+                        and pos != disc.positivity:
+                    raise bad("positivity", f"= {pos!r} differs from the discretisation's "
+                              f"({disc.positivity!r}); build it with discretise(..., "
+                              "positivity=...)")
+                return
+        if mesh is not None:
+            for name in ("nx", "ny", "y_max"):
+                if getattr(self, name) is not None:
+                    raise bad(name, "must not be given with a mesh (the mesh fixes it)")
+            if self.assembly == "tensor":
+                raise bad("assembly", "= 'tensor' needs the built-in structured mesh "
+                          "(no mesh)")
+            if pos in TENSOR_ONLY:
+                raise bad("positivity", f"= {pos!r} needs the built-in structured "
+                          "quadrilateral mesh; use 'upwind' or 'afc' with a mesh")
+            load_strip_mesh(system, mesh, where)
+            return
+        if self.assembly == "tensor" and self.element != "quad":
+            raise bad("assembly", "= 'tensor' needs element = 'quad'")
+        if pos in TENSOR_ONLY and (self.element != "quad" or self.assembly == "general"):
+            raise bad("positivity", f"= {pos!r} needs element = 'quad' and tensor assembly "
+                      "(a tensor grid); use 'upwind' or 'afc' otherwise")
+        if self.y_max is None and system.c == 0:
+            raise bad("y_max", "must be given when c = 0 (no damping bound on the energy "
+                      "tail; all dissipation comes from impacts)")
+        if self.y_max is not None:
+            from ..scales import energy_scale
+            v = math.sqrt(energy_scale(system))
+            if self.y_max < v:
+                raise bad("y_max", f"must be at least the thermal velocity sqrt(D1/λ) = "
+                          f"{v:.3g} (below it most of the density lies outside the strip); "
+                          f"got {self.y_max!r}")
+        self.grid(system, where)
+
+    def grid(self, system: VibroImpactSystem, where: str = "fem"):
+        """(domain, nx, ny) of the structured mesh these options give on ``system``."""
+        from .mesh import domain
+        try:
+            dom = domain(system, self.y_max)
+        except ValueError as exc:
+            raise InputError(f"{where}: y_max must be given: {exc}", where=where,
+                             name="y_max") from None
+        nx = DEFAULT_NX[self.degree] if self.nx is None else self.nx
+        ny = self.ny
+        if ny is None:
+            ratio = (2.0 * dom.y_max) / (dom.x1 - dom.x0) / 1.5
+            ny = max(2, 2 * int(round(0.5 * nx * min(ratio, 4.0))))
+        return dom, nx, ny
+
+    # -- cost ---------------------------------------------------------------------
+    def ndofs(self, system: VibroImpactSystem) -> int:
+        if self.discretisation is not None:
+            return int(self.discretisation.unit.size)
+        if self.mesh is not None:
+            mesh = load_strip_mesh(system, self.mesh, "fem")
+            cells, verts = mesh.t.shape[1], mesh.p.shape[1]
+            return verts if self.degree == 1 else verts + 2 * cells + cells
+        _, nx, ny = self.grid(system)
+        k = self.degree
+        return (k * nx + 1) * (k * ny + 1)
+
+    def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
+        """Memory, DOFs × steps and seconds (constants: docs/costs.md)."""
+        n = float(self.ndofs(system))
+        fill = 2200.0 if self.degree == 1 else 3000.0
+        lu = n * fill * max(1.0, math.log2(max(n, 2.0)) / 17.0)
+        factor_s = (3.4e-7 if self.degree == 1 else 6.5e-7) * n ** 1.3
+        if self.mesh is not None or self.element == "tri" or self.assembly == "general":
+            factor_s *= 3.0
+        key = "mesh" if self.mesh is not None else "nx"
+        if mode == "stationary":
+            iterations = {"quick": 20, True: 20, "van-albada": 20, "afc": 10}.get(
+                self.positivity, 1)
+            return Cost(80e6 + lu, n, "DOFs", 0.2 + iterations * factor_s, key)
+        from ..scales import period
+        t_end = float(max(times)) if times is not None and len(times) else 0.0
+        dt = self.dt if self.dt is not None else period(system) / 20.0
+        adaptive = self.tol is not None or (self.dt is None and not self.positivity
+                                            and (self.scheme in (None, "bdf2")))
+        steps = t_end / dt + (len(times) if times is not None else 0)
+        if adaptive:
+            steps = 1500.0 + 20.0 * t_end / dt
+        per_step = 3e-7 * n * (4.0 if self.positivity not in (False, "first-order") else 1.0)
+        if self.positivity not in (False, "first-order"):
+            per_step += factor_s        # a new factorisation each step
+        copies = 25.0 if adaptive else 3.0
+        key = "times" if t_end / dt > 1e7 else key
+        return Cost(80e6 + copies * lu, n * steps, "DOF-steps",
+                    0.2 + 10 * factor_s + steps * per_step, key)
+
+
+def load_strip_mesh(system: VibroImpactSystem, mesh: Any, where: str = "fem"):
+    """``mesh`` (a skfem.Mesh or a file) checked to be a mesh of the strip of ``system``.
+
+    Raises :class:`InputError` naming ``mesh`` when the file cannot be read as a
+    linear quadrilateral or triangle mesh, or when it is not a strip: walls at its
+    x-extremes where the system has barriers, symmetric in y, no cell across y = 0.
+    """
+    import numpy as np
+    import skfem
+
+    from .generator import element_for, mesh_domain
+    if not isinstance(mesh, skfem.Mesh):
+        path = Path(mesh)
+        if not path.is_file():
+            raise invalid(where, "mesh", "an existing mesh file", str(mesh))
+        if path.stat().st_size > 2 ** 30:
+            raise invalid(where, "mesh", "a mesh file below 1 GiB", str(mesh))
+        try:
+            mesh = skfem.Mesh.load(str(path))
+        except Exception as exc:  # meshio raises many kinds on foreign files
+            reason = " ".join(str(exc).split())[:120] or type(exc).__name__
+            raise invalid(where, "mesh", "a mesh file meshio can read", str(path),
+                          reason) from None
+    try:
+        element_for(mesh, 1)
+        mesh_domain(system, mesh)
+    except ValueError as exc:
+        raise invalid(where, "mesh", "a linear quad or triangle mesh of the strip",
+                      getattr(mesh, "__class__").__name__, str(exc)) from None
+    y = mesh.p[1][mesh.t]
+    scale = max(float(np.abs(mesh.p[1]).max()), 1e-300)
+    crosses = (y.min(axis=0) < -1e-12 * scale) & (y.max(axis=0) > 1e-12 * scale)
+    if np.any(crosses):
+        raise invalid(where, "mesh", "a mesh with y = 0 a mesh line (no cell across it)",
+                      f"{int(crosses.sum())} cells across y = 0")
+    return mesh

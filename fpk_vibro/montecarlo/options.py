@@ -1,0 +1,129 @@
+"""The options of the Monte Carlo method, declared once (see :mod:`fpk_vibro.options`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from .._checks import InputError
+from ..budget import Cost
+from ..model import VibroImpactSystem
+from ..options import Options as _Options
+from ..options import PerMode, option
+from . import _setup as S
+from .solution import QUANTITIES
+
+__all__ = ["Options"]
+
+ST, TR = ("stationary",), ("transient",)
+
+#: Path-steps per second of one thread (benchmark medians, docs/costs.md), kept low.
+PATH_STEPS_PER_S = 1.0e8
+
+
+@dataclass(frozen=True)
+class Options(_Options):
+    """Numerical options of :func:`~fpk_vibro.montecarlo.stationary` and
+    :func:`~fpk_vibro.montecarlo.transient`."""
+
+    WHERE = "montecarlo"
+
+    n_paths: int = option(PerMode(2048, 4096), "independent paths", "int", lo=2,
+                          hi=10 ** 9, reduced=512)
+    dt: float | None = option(None, "time step (the largest, in a transient)", "float",
+                              lo=0.0, lo_open=True, unit="s",
+                              auto="T0/120, smaller for target_rse < 1e-3 (fpk_vibro.scales)")
+    t_burn: float | None = option(None, "burn-in time per path", "float", lo=0.0, unit="s",
+                                  modes=ST, auto="6 relaxation times")
+    t_sample: float | None = option(None, "sampled time per path", "float", lo=0.0,
+                                    lo_open=True, unit="s", modes=ST, reduced=200.0,
+                                    auto="until the relative SE of E[H] is target_rse")
+    seed: Any = option(None, "random seed: the same seed gives the same numbers", "custom",
+                       check=S.check_seed, allowed="integer in [0, 2⁶³ − 1]",
+                       auto="fresh entropy, recorded in the result")
+    quantities: tuple = option(QUANTITIES, "histograms to accumulate", "custom",
+                               check=S.check_quantities, allowed=f"names from {QUANTITIES}",
+                               scene="study.quantities")
+    bins: Any = option(PerMode(100, 60), "histogram bins: n for H, x, y (n/2 per axis of the "
+                       "joint), or a table {quantity: count or edges}", "custom",
+                       check=S.check_bins, allowed="integer in [2, 100000] or a table")
+    n_batches: int = option(32, "independent batches (standard errors from their spread)",
+                            "int", lo=2, hi=10 ** 6)
+    target_rse: float = option(0.005, "relative SE of E[H] at which an adaptive run stops",
+                               "float", lo=0.0, hi=1.0, lo_open=True, hi_open=True, modes=ST)
+    max_t_sample: float | None = option(None, "longest sampled time of an adaptive run",
+                                        "float", lo=0.0, lo_open=True, unit="s", modes=ST,
+                                        auto="10⁴ relaxation times")
+    sample_every: int | None = option(None, "steps between samples of a path", "int", lo=1,
+                                      hi=10 ** 9, modes=ST, auto="about T0/4")
+    max_impacts: int = option(64, "impacts handled in one free-flight sub-step", "int",
+                              lo=1, hi=10 ** 6)
+    progress: bool | None = option(None, "a progress line on stderr", "bool",
+                                   scene="cli --quiet", auto="when stderr is a terminal")
+    threads: int | None = option(None, "worker threads (the result does not depend on it)",
+                                 "int", lo=1, hi=1024, auto="numba's thread count")
+
+    # -- rules joining options ----------------------------------------------------
+    def resolved(self, system: VibroImpactSystem, mode: str) -> dict[str, Any]:
+        """The defaults filled in for ``system``: dt, t_burn, max_t_sample, sample_every."""
+        adaptive = mode == "stationary" and self.t_sample is None
+        dt = self.dt if self.dt is not None else \
+            S.default_dt(system, self.target_rse if adaptive else None)
+        lam = S.relaxation_rate(system)
+        return {"dt": dt, "lam": lam, "adaptive": adaptive,
+                "t_burn": S.default_t_burn(system) if self.t_burn is None else self.t_burn,
+                "max_t_sample": 1e4 / lam if self.max_t_sample is None else self.max_t_sample,
+                "sample_every": S.default_sample_every(system, dt)
+                if self.sample_every is None else self.sample_every}
+
+    def validate_for(self, system: VibroImpactSystem, mode: str) -> None:
+        where = f"montecarlo.{mode}"
+
+        def bad(name: str, allowed: str, value: Any, why: str = "") -> InputError:
+            from .._checks import invalid
+            return invalid(where, name, allowed, value, why)
+
+        if self.n_batches > self.n_paths:
+            raise bad("n_batches", f"an integer in [2, n_paths = {self.n_paths}]",
+                      self.n_batches)
+        r = self.resolved(system, mode)
+        limit = S.dt_limit(system)
+        if r["dt"] > limit:
+            raise bad("dt", f"in (0, {limit:.4g}]", r["dt"], "1/ω_max, ω_max² = |a| + 3|b| X² "
+                      "at 30 energy scales: beyond it the explicit splitting loses stability")
+        if mode == "stationary":
+            t_min = r["sample_every"] * r["dt"]
+            for name in ("t_sample", "max_t_sample"):
+                val = getattr(self, name)
+                if val is not None and val < t_min * (1 - 1e-9):
+                    raise bad(name, f">= one sampling interval sample_every*dt = {t_min:.6g}",
+                              val)
+
+    # -- cost ---------------------------------------------------------------------
+    def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
+        """Memory, path-steps and seconds (constants: docs/costs.md)."""
+        r = self.resolved(system, mode)
+        bins = S.check_bins("bins", self.bins, None)
+        n_hist = sum(S.bin_count(bins[q]) for q in ("energy", "x", "y") if q in self.quantities)
+        if "joint" in self.quantities:
+            n_hist += S.bin_count(bins["joint"][0]) * S.bin_count(bins["joint"][1])
+        memory = 150e6 + 48.0 * self.n_paths + 3 * 8.0 * self.n_batches * n_hist
+        if mode == "stationary":
+            if r["adaptive"]:     # var(H) ≈ E[H]², correlation time ≈ 0.3/λ (measured)
+                t = min(r["max_t_sample"],
+                        max(1.0 / r["lam"], 0.3 / (r["lam"] * self.n_paths * self.target_rse ** 2)))
+                key = "target_rse"
+            else:
+                t, key = self.t_sample, "t_sample"
+            t += r["t_burn"]
+        else:
+            t = float(max(times)) if times is not None and len(times) else 0.0
+            key = "times"
+        if 3 * 8.0 * self.n_batches * n_hist > 0.5 * memory:
+            key = "bins"
+        elif 48.0 * self.n_paths > 0.5 * memory:
+            key = "n_paths"
+        path_steps = self.n_paths * math.ceil(t / r["dt"])
+        threads = self.threads or 2
+        seconds = 1.0 + path_steps / (PATH_STEPS_PER_S * min(threads, 2))
+        return Cost(memory, float(path_steps), "path-steps", seconds, key)

@@ -1,0 +1,227 @@
+"""Numerical options declared once: type, range, default, unit, doc, reduced size.
+
+Each method declares its options as a frozen dataclass (``averaging.Options``,
+``fem.Options``, ``montecarlo.Options``) whose fields are made with
+:func:`option`.  From that one declaration come
+
+- the validation of the solver's Python keywords (:meth:`Options.from_call`),
+- the scene schema of the method's table (``[averaging]``, ``[fem]``,
+  ``[montecarlo]``) and its validation (:meth:`Options.from_scene`),
+- the sizes of a reduced run (:meth:`Options.reduce`), and
+- the README's table of keys (:func:`fpk_vibro.scenes.schema_table`).
+
+A keyword given as a Python object (a mesh, a callable) is declared with the form
+it takes in a scene (a file).  A keyword that a scene sets elsewhere (the output
+times, the quantities, progress) names that place in ``scene``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar
+
+from ._checks import InputError, check_bool, check_choice, check_float, check_int, invalid
+
+__all__ = ["Option", "PerMode", "option", "Options", "MODES", "REQUIRED"]
+
+MODES = ("stationary", "transient")
+
+
+class _Required:
+    """The default of an option that must be given."""
+
+    def __repr__(self) -> str:
+        return "required"
+
+
+REQUIRED = _Required()
+
+
+@dataclass(frozen=True)
+class PerMode:
+    """A default (or reduced size) that differs between stationary and transient runs."""
+    stationary: Any
+    transient: Any
+
+    def __repr__(self) -> str:
+        return f"{self.stationary!r} (transient {self.transient!r})"
+
+
+@dataclass(frozen=True)
+class Option:
+    """One numerical option.
+
+    ``kind`` is "int", "float", "choice", "bool", "text" or "custom" (then
+    ``check(name, value, where)`` validates and ``allowed`` describes it).  ``auto``
+    says what ``None`` means (None is then allowed).  ``modes`` are the runs that use
+    it.  ``reduced`` is the cap of a reduced run ("drop" removes the option).
+    ``scene`` is "" (the key in the method's table), "file" (a path in the scene)
+    or the scene key / CLI flag that sets it.
+    """
+    default: Any
+    doc: str
+    kind: str
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple = ()
+    even: bool = False
+    unit: str = ""
+    auto: str = ""
+    modes: tuple = MODES
+    reduced: Any = None
+    scene: str = ""
+    check: Callable[[str, Any, str | None], Any] | None = None
+    allowed: str = ""
+    why: str = ""
+
+    def validate(self, name: str, value: Any, where: str | None) -> Any:
+        """The cleaned value, or :class:`InputError` naming ``name`` (and saying why)."""
+        try:
+            return self._validate(name, value, where)
+        except InputError as exc:
+            if not self.why:
+                raise
+            raise InputError(f"{exc} ({self.why})", where=exc.where, name=exc.name) from None
+
+    def default_for(self, mode: str) -> Any:
+        return getattr(self.default, mode) if isinstance(self.default, PerMode) else self.default
+
+    @property
+    def nullable(self) -> bool:
+        return bool(self.auto) or self.default is None
+
+    def _validate(self, name: str, value: Any, where: str | None) -> Any:
+        if value is None:
+            if self.nullable:
+                return None
+            raise invalid(where, name, self.describe(), value)
+        if self.kind == "int":
+            hi = None if math.isinf(self.hi) else int(self.hi)
+            return check_int(name, value, int(self.lo), hi, where=where, even=self.even)
+        if self.kind == "float":
+            return check_float(name, value, self.lo, self.hi, lo_open=self.lo_open,
+                               hi_open=self.hi_open, where=where)
+        if self.kind == "choice":
+            return check_choice(name, value, self.choices, where=where)
+        if self.kind == "bool":
+            return check_bool(name, value, where=where)
+        if self.kind == "text":
+            if not isinstance(value, str) or not value.strip() or len(value) > 4096:
+                raise invalid(where, name, "a non-empty string", value)
+            return value
+        return self.check(name, value, where)
+
+    def describe(self) -> str:
+        """The allowed values, for messages and the README."""
+        if self.kind == "int":
+            text = f"integer in [{self.lo:g}, {self.hi:g}]" if math.isfinite(self.hi) \
+                else f"integer >= {self.lo:g}"
+            text = ("even " if self.even else "") + text
+        elif self.kind == "float":
+            from ._checks import interval
+            text = interval(self.lo, self.hi, self.lo_open, self.hi_open)[2:]
+        elif self.kind == "choice":
+            text = "one of " + ", ".join(_toml(c) for c in self.choices)
+        elif self.kind == "bool":
+            text = "true or false"
+        elif self.kind == "text":
+            text = "a string"
+        else:
+            text = self.allowed
+        return text
+
+
+def _toml(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    return repr(value)
+
+
+def option(default: Any, doc: str, kind: str, **spec: Any) -> Any:
+    """A dataclass field declaring one :class:`Option` (see the module docstring)."""
+    opt = Option(default, doc, kind, **spec)
+    return dataclasses.field(default=opt.default_for("stationary"), metadata={"option": opt})
+
+
+class Options:
+    """Base of the per-method option dataclasses.
+
+    Subclasses are frozen dataclasses whose fields are made with :func:`option`
+    and set ``WHERE`` (the method's name in messages and scenes).
+    """
+
+    WHERE: ClassVar[str] = ""
+
+    @classmethod
+    def declared(cls) -> dict[str, Option]:
+        """{name: Option} in declaration order."""
+        return {f.name: f.metadata["option"] for f in dataclasses.fields(cls)}
+
+    @classmethod
+    def for_mode(cls, mode: str) -> dict[str, Option]:
+        return {k: o for k, o in cls.declared().items() if mode in o.modes}
+
+    @classmethod
+    def from_call(cls, mode: str, values: dict[str, Any]):
+        """Validate a solver's keywords (``locals()`` at its start) for ``mode``.
+
+        Keys that are not options (``system``, ``initial``, ``times``) are ignored;
+        options of the other mode keep their defaults.
+        """
+        where = f"{cls.WHERE}.{mode}"
+        declared = cls.declared()
+        clean = {}
+        for name, opt in declared.items():
+            if name in values and mode in opt.modes:
+                clean[name] = opt.validate(name, values[name], where)
+            else:
+                clean[name] = opt.default_for(mode)
+        return cls(**clean)
+
+    @classmethod
+    def from_scene(cls, mode: str, table: dict[str, Any]) -> dict[str, Any]:
+        """Validate a scene table for ``mode``: {key: value} of the keys given.
+
+        Raises :class:`InputError` whose ``name`` is the scene key (``fem.nx``).
+        """
+        declared = cls.declared()
+        out = {}
+        for key, value in table.items():
+            full = f"{cls.WHERE}.{key}"
+            opt = declared.get(key)
+            if opt is None or opt.scene not in ("", "file"):
+                from ._checks import closest
+                keys = [k for k, o in declared.items() if o.scene in ("", "file")]
+                raise InputError(f"{full}: unknown key; allowed {keys}{closest(key, keys)}",
+                                 name=full)
+            if mode not in opt.modes:
+                other = "stationary (no study.times)" if mode == "transient" else \
+                    "transient (with study.times)"
+                raise InputError(f"{full}: only used by {other} runs; remove it", name=full)
+            out[key] = opt.validate(full, value, None)
+        return out
+
+    @classmethod
+    def reduce(cls, mode: str, given: dict[str, Any]) -> dict[str, Any]:
+        """The scene values of a reduced run: each size capped at its ``reduced``."""
+        out = dict(given)
+        for name, opt in cls.for_mode(mode).items():
+            cap = opt.reduced.transient if isinstance(opt.reduced, PerMode) and mode == \
+                "transient" else (opt.reduced.stationary if isinstance(opt.reduced, PerMode)
+                                  else opt.reduced)
+            if cap is None:
+                continue
+            if cap == "drop":
+                out.pop(name, None)
+                continue
+            current = out.get(name, opt.default_for(mode))
+            out[name] = cap if current is None else min(current, cap)
+        return out
+
+    def replace(self, **changes: Any):
+        return dataclasses.replace(self, **changes)
