@@ -3,7 +3,8 @@
 Commands
 --------
 run SCENE   run a scene (TOML): results.json, densities.npz, figures
-check SCENE validate a scene without running it
+check SCENE every check of run, and the cost per point and method, without running
+keys        the table of scene keys (Markdown), generated from the declarations
 show DIR    print the summary table of a results directory
 study KIND  ``convergence`` (error vs wall time) or ``averaging`` (where it holds)
 paper       the paper's case end to end (Fig. 3 analogue): p(H) for r = 0.98, 0.92
@@ -150,6 +151,13 @@ def cmd_study(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_keys(args: argparse.Namespace) -> int:
+    """The table of scene keys (generated from the declarations; the README's)."""
+    from .scenes import schema_table
+    print(schema_table())
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     module = importlib.import_module(_BENCHMARKS[args.name])
     return int(module.main(args.rest) or 0)
@@ -207,6 +215,8 @@ def build_parser() -> argparse.ArgumentParser:
     pt.add_argument("--out", default=None, help="output directory")
     pt.add_argument("--quick", action="store_true", help="reduced size (about a minute)")
     pt.set_defaults(func=cmd_study)
+    pk = sub.add_parser("keys", help="the table of scene keys (Markdown)")
+    pk.set_defaults(func=cmd_keys)
     pp = sub.add_parser("paper", help="the paper's case end to end (Fig. 3 analogue)")
     pp.add_argument("--out", default="results", help="output directory (default: results)")
     pp.set_defaults(func=cmd_paper)

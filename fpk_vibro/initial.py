@@ -27,13 +27,14 @@ from typing import Any
 import numpy as np
 from scipy import special
 
+from ._checks import invalid
 from .model import VibroImpactSystem
 
 __all__ = ["InitialCondition", "parse_initial", "parse_times"]
 
 
 def _bad(field: str, allowed: str, value: Any) -> ValueError:
-    return ValueError(f"initial: {field} must be {allowed}; got {value!r}")
+    return invalid("initial", field, allowed, value)
 
 
 def _pair(spec: Mapping, key: str) -> tuple[float, float]:
@@ -42,7 +43,7 @@ def _pair(spec: Mapping, key: str) -> tuple[float, float]:
     val = spec[key]
     try:
         arr = np.asarray(val, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _bad(key, "a pair of finite numbers", val) from None
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
         raise _bad(key, "a pair of finite numbers", val)
@@ -94,11 +95,17 @@ class InitialCondition:
                 self.mean[1] + self.std[1] * rng.standard_normal(n)
             return x, y
         out = self.sampler(n, rng)
-        if isinstance(out, tuple) and len(out) == 2:
-            x = np.asarray(out[0], dtype=float).reshape(-1)
-            y = np.asarray(out[1], dtype=float).reshape(-1)
-        else:
-            arr = np.asarray(out, dtype=float)
+        try:
+            if isinstance(out, tuple) and len(out) == 2:
+                x = np.asarray(out[0], dtype=float).reshape(-1)
+                y = np.asarray(out[1], dtype=float).reshape(-1)
+                arr = None
+            else:
+                arr = np.asarray(out, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise _bad("initial(n, rng)", "numbers: an array of shape (n, 2) or a pair (x, y)",
+                       out) from None
+        if arr is not None:
             if arr.ndim != 2 or arr.shape[1] != 2:
                 raise _bad("initial(n, rng)", f"an array of shape ({n}, 2) or a pair (x, y)",
                            f"<array of shape {arr.shape}>")
@@ -209,10 +216,10 @@ def parse_times(times: Any, where: str, *, increasing: bool = True) -> np.ndarra
             else "a non-empty sequence of finite numbers >= 0")
     try:
         t = np.asarray(times, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"{where}: times must be {rule}; got {times!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise invalid(where, "times", rule, times) from None
     if t.size == 0 or not np.all(np.isfinite(t)) or np.any(t < 0) or \
             (increasing and np.any(np.diff(t) <= 0)):
-        raise ValueError(f"{where}: times must be {rule}; got {times!r}")
+        raise invalid(where, "times", rule, times)
     return t
 

@@ -117,8 +117,8 @@ class Option:
     def describe(self) -> str:
         """The allowed values, for messages and the README."""
         if self.kind == "int":
-            text = f"integer in [{self.lo:g}, {self.hi:g}]" if math.isfinite(self.hi) \
-                else f"integer >= {self.lo:g}"
+            text = f"integer in [{int(self.lo)}, {int(self.hi)}]" if math.isfinite(self.hi) \
+                else f"integer >= {int(self.lo)}"
             text = ("even " if self.even else "") + text
         elif self.kind == "float":
             from ._checks import interval

@@ -61,7 +61,8 @@ def _moments_record(sol: Any) -> dict[str, Any]:
     rec: dict[str, Any] = {"moments": sol.moments()}
     if hasattr(sol, "moments_se"):
         rec["moments_se"] = sol.moments_se()
-    for attr in ("mass", "min_density", "residual", "impact_rate", "n_paths", "dt", "partial"):
+    for attr in ("mass", "min_density", "residual", "impact_rate", "n_paths", "dt", "partial",
+                 "seed_entropy"):
         val = getattr(sol, attr, None)
         if isinstance(val, (int, float, bool, np.floating, np.integer)):
             rec[attr] = val.item() if hasattr(val, "item") else val

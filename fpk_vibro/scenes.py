@@ -31,7 +31,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["Scene", "SceneError", "load_scene", "parse_scene", "SCHEMA", "METHODS",
+__all__ = ["Scene", "SceneError", "load_scene", "parse_scene", "SCHEMA", "METHODS",  # noqa: F822
            "QUANTITIES", "schema_table", "SWEEPABLE"]
 
 METHODS = ("averaging", "fem", "montecarlo", "exact")
@@ -385,6 +385,8 @@ def schema_table() -> str:
         for k, opt in table_keys(table).items():
             if opt.default is REQUIRED:
                 default = "required"
+            elif opt.auto in ("none", "") and opt.default is None:
+                default = "—"
             elif opt.auto:
                 default = f"auto: {opt.auto}"
             elif isinstance(opt.default, tuple):
@@ -395,7 +397,8 @@ def schema_table() -> str:
             doc = opt.doc
             if len(opt.modes) == 1:
                 doc += f"; {opt.modes[0]} runs only"
-            rows.append(f"| `{table}.{k}` | {default} | {allowed} | {doc} |")
+            cells = (f"`{table}.{k}`", default, allowed, doc)
+            rows.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     return "\n".join(rows)
 
 

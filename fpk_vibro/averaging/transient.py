@@ -15,7 +15,6 @@ Jacobian (the operator itself).
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Sequence
 
 import numpy as np
@@ -26,7 +25,7 @@ from ..model import VibroImpactSystem
 from ..orbits import orbit_nodes
 from .._checks import check_system
 from ..budget import enforce
-from .coefficients import _rate, coefficients
+from .coefficients import coefficients
 from .grid_solution import EnergyGridSolution
 from .options import Options
 from .stationary import AveragedSolution, solve

@@ -55,6 +55,7 @@ from .solution import FEMSolution
 from .solve import SOLVERS, solve_stationary
 
 __all__ = ["stationary", "Options", "FEMSolution", "assemble", "assemble_tensor", "domain",
+           "DEFAULT_NX", "POSITIVITY",
            "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS"]
 
 

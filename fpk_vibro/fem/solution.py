@@ -256,11 +256,22 @@ class FEMSolution(Solution):
     def save_vtu(self, path: str | Path) -> Path:
         """Write the mesh with the nodal density ``p`` (vertex values) through meshio.
 
-        Any extension meshio knows works (``.vtu`` for ParaView, ``.xdmf``, ...).
+        Any extension meshio writes works (``.vtu`` for ParaView, ``.xdmf``, ...).
         """
+        import meshio
+        from .._checks import invalid
+        if not isinstance(path, (str, Path)) or not str(path).strip():
+            raise invalid("FEMSolution.save_vtu", "path", "a file path", path)
         path = Path(path)
+        if path.suffix.lower() not in meshio.extension_to_filetypes:
+            raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
+                          "meshio writes (.vtu, .xdmf, .vtk, ...)", str(path))
         vertex_vals = self.dofs[self.basis.nodal_dofs[0]]
-        self.mesh.save(str(path), point_data={"p": vertex_vals})
+        try:
+            self.mesh.save(str(path), point_data={"p": vertex_vals})
+        except (meshio.ReadError, meshio.WriteError, KeyError) as exc:
+            raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
+                          "meshio writes", str(path), str(exc)) from None
         return path
 
     # -- persistence -----------------------------------------------------------------------

@@ -101,7 +101,7 @@ def grid_nested_dissection(xrank: np.ndarray, yrank: np.ndarray, leaf: int = 6
             out.append((xs[i0:i1, None] * ny + ys[None, j0:j1]).ravel())
             continue
         ni, nj = i1 - i0, j1 - j0
-        if ni <= leaf * step or nj <= leaf * step:
+        if ni <= leaf * step and nj <= leaf * step:
             out.append((xs[i0:i1, None] * ny + ys[None, j0:j1]).ravel())
             continue
         if ni >= nj:

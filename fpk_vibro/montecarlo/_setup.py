@@ -19,10 +19,6 @@ from .solution import QUANTITIES
 CHUNK_PATH_STEPS = 1 << 23      # path-steps per kernel call (progress / Ctrl-C granularity)
 
 
-def fail(func: str, name: str, allowed: str, value: Any) -> ValueError:
-    return _checks.invalid(f"montecarlo.{func}", name, allowed, value)
-
-
 def check_quantities(name: str, quantities: Any, where: str | None) -> tuple[str, ...]:
     if isinstance(quantities, str):
         quantities = (quantities,)
