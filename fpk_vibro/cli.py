@@ -110,10 +110,19 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     path = Path(args.dir) / "results.json"
     try:
-        doc = json.loads(path.read_text())
+        doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
-        raise ValueError(f"{path}: cannot read results ({exc})") from None
-    _print_summary(doc)
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise ValueError(f"{path}: cannot read results ({reason})") from None
+    import contextlib
+    import io
+    text = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(text):
+            _print_summary(doc)
+    except (KeyError, TypeError, AttributeError, ValueError, IndexError):
+        raise ValueError(f"{path}: not a results file of fpk-vibro (malformed)") from None
+    print(text.getvalue(), end="")
     return 0
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
+from ._checks import InputError
 from .budget import Cost, enforce
 from .model import VibroImpactSystem
 
@@ -52,4 +53,10 @@ def plan(scene: Any, method: str, system: VibroImpactSystem) -> Cost:
         from .initial import parse_initial
         parse_initial(scene.initial, system)
     opts.validate_for(system, scene.mode)
+    if method == "fem" and "energy" in scene.quantities:
+        from .fem.solution import FEMSolution
+        if not FEMSolution.has_energy_density(system):
+            raise InputError(f"fem: the energy density p(H) needs a > 0, or a = 0 < b (one "
+                             f"orbit per energy level); got a={system.a}, b={system.b}: "
+                             "remove 'energy' or fem", where="fem", name="quantities")
     return enforce(opts.estimate(system, scene.mode, scene.times), where)

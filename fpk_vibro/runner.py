@@ -25,6 +25,7 @@ import numpy as np
 from .io import atomic_savez, atomic_write_text
 from .model import VibroImpactSystem
 from .plan import solver_kwargs
+from .scales import reach as scales_reach
 from .scenes import Scene, check_scene
 
 __all__ = ["run_scene", "run_point", "grids_for"]
@@ -32,13 +33,14 @@ __all__ = ["run_scene", "run_point", "grids_for"]
 
 def grids_for(system: VibroImpactSystem, reference: Any) -> dict[str, np.ndarray]:
     """Evaluation grids for H, x, y covering the bulk of ``reference``'s density."""
-    E_H = reference.moments()["E_H"]
-    H_top = 12.0 * E_H
+    from .scales import potential_min
+    g0 = potential_min(system)
+    H_top = g0 + 12.0 * max(reference.moments()["E_H"] - g0, 1e-12)
     lo, hi = system.x_bounds
-    x_top = float(system.amplitude(H_top)) if np.isfinite(system.amplitude(H_top)) else 10.0
-    lo, hi = max(lo, -x_top), min(hi, x_top)
-    y_top = float(np.sqrt(2.0 * H_top))
-    return {"energy": np.linspace(0.0, H_top, 301)[1:], "x": np.linspace(lo, hi, 241),
+    A = float(scales_reach(system, H_top))
+    lo, hi = max(lo, -A), min(hi, A)
+    y_top = float(np.sqrt(2.0 * (H_top - g0)))
+    return {"energy": np.linspace(g0, H_top, 301)[1:], "x": np.linspace(lo, hi, 241),
             "y": np.linspace(-y_top, y_top, 241),
             "joint": (np.linspace(lo, hi, 121), np.linspace(-y_top, y_top, 121))}
 

@@ -126,14 +126,15 @@ def _bound_density(system: VibroImpactSystem, H: np.ndarray) -> tuple[np.ndarray
     """(rate 1/T(H), dS/dH) of the tail bound on the energies ``H`` (module docstring)."""
     from .orbits import energy_loss, orbit_nodes, single_well
     if single_well(system):
-        o = orbit_nodes(system, np.maximum(H, 0.0))
-        v2 = o.v ** 2
-        J1 = o.integrate(v2)
-        J2 = o.integrate(2.0 * v2 * system.noise_intensity(o.x))
+        with np.errstate(divide="ignore", invalid="ignore"):   # H = 0 with a = 0
+            o = orbit_nodes(system, np.maximum(H, 0.0))
+        v2 = np.nan_to_num(o.v ** 2)
         with np.errstate(divide="ignore", invalid="ignore"):
+            J1 = o.integrate(v2)
+            J2 = o.integrate(2.0 * v2 * system.noise_intensity(o.x))
             rate = (2.0 * system.c * J1 + energy_loss(system, H)) / J2
         rate[0] = system.c / system.D1                      # the H → 0 limit
-        return rate, o.period
+        return rate, np.nan_to_num(o.period, posinf=0.0)
     X2 = reach(system, H) ** 2
     lo, hi = system.x_bounds
     X = float(reach(system, H[-1]))
@@ -166,9 +167,10 @@ def tail_energy(system: VibroImpactSystem, mass: float = TAIL_MASS) -> float:
         phi = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(H))])
         dm = 0.5 * (dS[1:] + dS[:-1]) * np.diff(H) * np.exp(-0.5 * (phi[1:] + phi[:-1]))
         total = dm.sum()
-        tail = np.concatenate([np.cumsum(dm[::-1])[::-1], [0.0]]) / total
-        if total > 0 and tail[-2] < 1e-3 * mass:
-            return float(H[np.argmax(tail < mass)])
+        if total > 0:
+            tail = np.concatenate([np.cumsum(dm[::-1])[::-1], [0.0]]) / total
+            if tail[-2] < 1e-3 * mass:
+                return float(H[np.argmax(tail < mass)])
         top = g0 + 2.0 * (top - g0)
     raise ValueError(f"the energy tail does not decay fast enough for a truncation "
                      f"(D2={system.D2} against c={system.c} on a side without barrier); "

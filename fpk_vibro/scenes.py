@@ -364,8 +364,8 @@ def check_scene(scene: Scene) -> list[dict[str, Any]]:
 
 def _scene_key(method: str, exc: InputError) -> str:
     """The scene key of a solver's error ``exc``."""
-    if exc.name in ("times",):
-        return "study.times"
+    if exc.name in ("times", "quantities"):
+        return f"study.{exc.name}"
     if exc.name == "initial" or exc.name.startswith(("mean", "std", "initial")):
         return "initial." + ("std" if "std" in exc.name else "mean")
     if exc.name == "system" or not exc.name:

@@ -11,9 +11,15 @@ EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.toml"))
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
-def test_example_scene_runs(tmp_path, path):
+def test_example_scene_is_checked_then_runs(tmp_path, path, capsys):
+    """`check --reduced` accepts it, then `run --reduced` runs it without error."""
+    from fpk_vibro import cli
+    assert cli.main(["check", str(path), "--reduced"]) == 0
+    assert "estimated total" in capsys.readouterr().out
+    assert cli.main(["run", str(path), "--reduced", "--out", str(tmp_path), "--quiet",
+                     "--workers", "1"]) == 0
     scene = load_scene(path).reduced()
-    doc = run_scene(scene, out=tmp_path, workers=1, log=lambda s: None)
+    doc = json.loads((tmp_path / "results.json").read_text())
     assert len(doc["points"]) == len(scene.points())
     for point in doc["points"]:
         assert "error" not in point, point.get("error")

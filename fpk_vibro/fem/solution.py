@@ -200,12 +200,18 @@ class FEMSolution(Solution):
                              intorder=2 * npts - 1)
         return np.asarray(qb.global_coordinates())[0].ravel(), qb.dx.ravel()
 
+    @staticmethod
+    def has_energy_density(system) -> bool:
+        """True where :meth:`pdf_energy` applies: G increasing on each side of 0
+        (a > 0, or a = 0 < b), so each energy level is one orbit."""
+        return system.a > 0 or (system.a == 0 and system.b > 0)
+
     def pdf_energy(self, H):
         """Density of H from p_h by the coarea formula (module docstring)."""
         s = self.system
-        if s.a <= 0:
-            raise NotImplementedError("pdf_energy of a FEMSolution needs a > 0 "
-                                      "(G monotone on each side)")
+        if not self.has_energy_density(s):
+            raise NotImplementedError("pdf_energy of a FEMSolution needs a > 0, or a = 0 "
+                                      "< b (G monotone on each side)")
         H = np.asarray(H, float)
         Hf = H.ravel()
         out = np.zeros(Hf.size)
