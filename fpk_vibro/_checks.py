@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from typing import Any
 
 __all__ = ["InputError", "invalid", "show", "check_int", "check_float", "check_choice",
-           "check_bool", "check_system", "closest"]
+           "check_bool", "closest"]
 
 #: Longest value representation put in a message.
 _SHOW = 80
@@ -40,7 +40,7 @@ class InputError(ValueError):
     def keyed(self, key: str, suffix: str = "") -> str:
         """The message naming ``key`` (e.g. a scene key) instead."""
         rule = self.rule
-        sep = " " if rule.startswith(("must ", "needs ")) else ": "
+        sep = " " if rule.startswith(("must ", "needs ", "= ")) else ": "
         return f"{key}{sep}{rule}{suffix}"
 
 
@@ -130,11 +130,3 @@ def check_bool(name: str, value: Any, *, where: str | None = None) -> bool:
     if not isinstance(value, bool):
         raise invalid(where, name, "True or False", value)
     return value
-
-
-def check_system(where: str, system: Any):
-    """``system`` if it is a :class:`~fpk_vibro.VibroImpactSystem`."""
-    from .model import VibroImpactSystem
-    if not isinstance(system, VibroImpactSystem):
-        raise invalid(where, "system", "a VibroImpactSystem", system)
-    return system

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 from scipy import integrate, special
 
-from ._checks import InputError, check_system
-from .model import VibroImpactSystem
+from ._checks import InputError
+from .model import VibroImpactSystem, check_system
 from .orbits import orbit_nodes, require_single_well
 from .solution import Solution
 

@@ -20,7 +20,7 @@ import numpy as np
 from ._checks import InputError, check_float, invalid
 from .options import REQUIRED, Option
 
-__all__ = ["VibroImpactSystem", "BARRIER_KINDS", "FIELDS"]
+__all__ = ["VibroImpactSystem", "BARRIER_KINDS", "FIELDS", "check_system"]
 
 BARRIER_KINDS = ("both", "right", "none")
 
@@ -217,3 +217,10 @@ class VibroImpactSystem:
         if self.barriers == "both":
             out.append("impact_left")
         return out
+
+
+def check_system(where: str, system: Any) -> VibroImpactSystem:
+    """``system`` if it is a :class:`VibroImpactSystem`, else a one-line error."""
+    if not isinstance(system, VibroImpactSystem):
+        raise invalid(where, "system", "a VibroImpactSystem", system)
+    return system

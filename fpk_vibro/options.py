@@ -223,5 +223,25 @@ class Options:
             out[name] = cap if current is None else min(current, cap)
         return out
 
+    @classmethod
+    def prepare(cls, system: Any, mode: str, values: dict[str, Any], *, initial: Any = None,
+                times: Any = None, probe: bool = False):
+        """Everything a solver checks before its work; returns (options, cost).
+
+        ``values`` are the solver's keywords (its ``locals()``); ``initial`` a parsed
+        initial condition (checked against the options), ``times`` the output
+        times; ``probe`` adds the checks a solver meets only while it works (the
+        scene check).  Work beyond the budget is refused (:mod:`fpk_vibro.budget`).
+        """
+        from .budget import enforce
+        from .model import check_system
+        where = f"{cls.WHERE}.{mode}"
+        check_system(where, system)
+        opts = cls.from_call(mode, values)
+        opts.validate_for(system, mode, probe=probe)
+        if initial is not None and hasattr(opts, "validate_initial"):
+            opts.validate_initial(system, initial)
+        return opts, enforce(opts.estimate(system, mode, times), where)
+
     def replace(self, **changes: Any):
         return dataclasses.replace(self, **changes)

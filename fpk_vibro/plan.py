@@ -12,7 +12,7 @@ from importlib import import_module
 from typing import Any
 
 from ._checks import InputError
-from .budget import Cost, enforce
+from .budget import Cost
 from .model import VibroImpactSystem
 
 __all__ = ["solver_kwargs", "plan", "SOLVER_QUANTITIES"]
@@ -46,17 +46,17 @@ def plan(scene: Any, method: str, system: VibroImpactSystem) -> Cost:
         from .exact import require_gibbs
         require_gibbs(system)
         return Cost(50e6, 1.0, "quadratures", 0.05)
-    where = f"{method}.{scene.mode}"
     Options = import_module(f"fpk_vibro.{method}.options").Options
-    opts = Options.from_call(scene.mode, solver_kwargs(scene, method))
+    init = None
     if scene.transient:
         from .initial import parse_initial
-        parse_initial(scene.initial, system)
-    opts.validate_for(system, scene.mode)
+        init = parse_initial(scene.initial, system)
+    _, cost = Options.prepare(system, scene.mode, solver_kwargs(scene, method), initial=init,
+                              times=scene.times, probe=True)
     if method == "fem" and "energy" in scene.quantities:
         from .fem.solution import FEMSolution
         if not FEMSolution.has_energy_density(system):
             raise InputError(f"fem: the energy density p(H) needs a > 0, or a = 0 < b (one "
                              f"orbit per energy level); got a={system.a}, b={system.b}: "
                              "remove 'energy' or fem", where="fem", name="quantities")
-    return enforce(opts.estimate(system, scene.mode, scene.times), where)
+    return cost

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._checks import check_system, invalid
+from .._checks import invalid
+from ..model import check_system
 from ..model import VibroImpactSystem
 from ..orbits import energy_loss, orbit_nodes, require_single_well
 from .options import Options

@@ -15,6 +15,15 @@ __all__ = ["Options"]
 S, T = ("stationary",), ("transient",)
 
 
+def check_coverage(masses: Any, H_max: float) -> None:
+    """Raise unless the cell masses of the initial density sum to 1 (to 1e-6)."""
+    lost = 1.0 - float(masses.sum())
+    if lost > 1e-6:
+        raise InputError(f"averaging.transient: H_max = {H_max:g} leaves {lost:.2g} of the "
+                         "initial mass outside the energy grid (raise it)",
+                         where="averaging.transient", name="H_max")
+
+
 @dataclass(frozen=True)
 class Options(_Options):
     """Numerical options of :func:`~fpk_vibro.averaging.stationary` and
@@ -37,7 +46,7 @@ class Options(_Options):
     seed: int = option(0, "seed for histogramming a sampler initial condition", "int",
                        lo=0, hi=2 ** 63 - 1, modes=T)
 
-    def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = True) -> None:
+    def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = False) -> None:
         """The system-dependent checks: one orbit per energy level, and (``probe``) a
         light tail where a linear spring meets parametric noise on an open side."""
         from ..orbits import require_single_well
@@ -51,6 +60,14 @@ class Options(_Options):
         except ValueError as exc:
             msg = str(exc) if str(exc).startswith("averaging") else f"averaging: {exc}"
             raise InputError(msg, where="averaging", name="system") from None
+
+    def validate_initial(self, system: VibroImpactSystem, init: Any) -> None:
+        """A given ``H_max`` must hold the initial density (its energy grid)."""
+        if self.H_max is None:
+            return
+        from .transient import energy_faces, initial_cell_masses
+        faces = energy_faces(system, self.H_max, self.n_cells)
+        check_coverage(initial_cell_masses(init, faces, seed=self.seed), self.H_max)
 
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
         """Memory and seconds measured on the paper's case (docs/costs.md)."""

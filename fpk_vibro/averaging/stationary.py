@@ -27,8 +27,6 @@ import numpy as np
 from numpy.polynomial import legendre as L
 
 from ..model import VibroImpactSystem
-from .._checks import check_system
-from ..budget import enforce
 from ..orbits import orbit_nodes
 from ..solution import Solution
 from .coefficients import _gl, _panel_nodes, _rate
@@ -270,10 +268,7 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
     Gibbs solution (r = 1, D2 = 0) to ~1e-13 relative, and T, m, σ² with adaptive
     quadrature to ~1e-13 (tests/test_averaging.py).
     """
-    check_system("averaging.stationary", system)
-    opts = Options.from_call("stationary", locals())
-    opts.validate_for(system, "stationary", probe=False)
-    enforce(opts.estimate(system, "stationary"), "averaging.stationary")
+    opts, _ = Options.prepare(system, "stationary", locals())
     return solve(system, opts)
 
 

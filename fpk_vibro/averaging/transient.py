@@ -21,13 +21,11 @@ import numpy as np
 from scipy import integrate, sparse, special
 
 from ..initial import InitialCondition, parse_initial, parse_times
-from ..model import VibroImpactSystem
+from ..model import VibroImpactSystem, check_system
 from ..orbits import orbit_nodes
-from .._checks import check_system
-from ..budget import enforce
 from .coefficients import coefficients
 from .grid_solution import EnergyGridSolution
-from .options import Options
+from .options import Options, check_coverage
 from .stationary import AveragedSolution, solve
 
 __all__ = ["transient", "energy_faces", "averaged_operator", "initial_cell_masses"]
@@ -136,11 +134,9 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         Each with ``.time``, ``.mass`` (1 to round-off) and the Solution interface.
     """
     check_system("averaging.transient", system)
-    opts = Options.from_call("transient", locals())
     init = parse_initial(initial, system)
     t_out = parse_times(times, "averaging.transient", increasing=False)
-    opts.validate_for(system, "transient", probe=False)
-    enforce(opts.estimate(system, "transient", t_out), "averaging.transient")
+    opts, _ = Options.prepare(system, "transient", locals(), initial=init, times=t_out)
     n_cells, H_max, rtol, seed = opts.n_cells, opts.H_max, opts.rtol, opts.seed
     st = solve(system, opts)
     if H_max is None:
@@ -150,9 +146,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             H_max = max(H_max, float(system.energy(abs(mx) + 10 * sx, abs(my) + 10 * sy)))
     faces = energy_faces(system, float(H_max), n_cells)
     mass0 = initial_cell_masses(init, faces, seed=seed)
-    if mass0.sum() < 1 - 1e-6:
-        raise ValueError(f"averaging.transient: H_max={H_max:g} leaves {1 - mass0.sum():.2g} of "
-                         "the initial mass outside the energy grid; raise H_max")
+    check_coverage(mass0, H_max)
     h = np.diff(faces)
     p0 = mass0 / mass0.sum() / h
     A = averaged_operator(system, faces, st)

@@ -44,8 +44,6 @@ import time
 import numpy as np
 import skfem
 
-from .._checks import check_system
-from ..budget import enforce
 from ..model import VibroImpactSystem
 from .generator import (assemble, assemble_tensor, element_for, mesh_domain,
                        quadrature_order, tensor_index)
@@ -69,16 +67,6 @@ def default_mesh(system: VibroImpactSystem, opts: Options):
     dom, nx, ny = opts.grid(system)
     m, xs, ys = structured_mesh(dom, nx, ny, kind=opts.element, grading=float(opts.grading))
     return dom, m, xs, ys
-
-
-def prepare(system: VibroImpactSystem, mode: str, values: dict) -> Options:
-    """Validated options of a solver call (its ``locals()``), refused beyond the budget."""
-    where = f"fem.{mode}"
-    check_system(where, system)
-    opts = Options.from_call(mode, values)
-    opts.validate_for(system, mode)
-    enforce(opts.estimate(system, mode, values.get("times")), where)
-    return opts
 
 
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
@@ -145,7 +133,7 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     -----
     Every option is declared once in :class:`fpk_vibro.fem.Options`.
     """
-    opts = prepare(system, "stationary", locals())
+    opts, _ = Options.prepare(system, "stationary", locals())
     degree, solver, positivity = opts.degree, opts.solver, opts.positivity
     t0 = time.perf_counter()
     tensor = None
@@ -196,6 +184,6 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                        tensor=tensor, mass=mass)
 
 
-from .transient import relaxation_time, transient  # noqa: E402  (uses prepare)
+from .transient import relaxation_time, transient  # noqa: E402  (uses default_mesh)
 
 __all__ += ["transient", "relaxation_time"]

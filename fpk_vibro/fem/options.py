@@ -108,7 +108,7 @@ class Options(_Options):
                                  auto="built from the mesh options")
 
     # -- rules joining options ----------------------------------------------------
-    def validate_for(self, system: VibroImpactSystem, mode: str) -> None:
+    def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = False) -> None:
         """Every rule joining the options to each other and to ``system``."""
         where = f"fem.{mode}"
         pos, mesh = self.positivity, self.mesh
@@ -171,6 +171,21 @@ class Options(_Options):
                           f"{v:.3g} (below it most of the density lies outside the strip); "
                           f"got {self.y_max!r}")
         self.grid(system, where)
+
+    def validate_initial(self, system: VibroImpactSystem, init: Any) -> None:
+        """The mean of a Gaussian start must lie inside the truncated strip."""
+        if not getattr(init, "is_gaussian", False):
+            return
+        if self.discretisation is not None:
+            y_max = float(abs(self.discretisation.points[1]).max())
+        elif self.mesh is not None:
+            y_max = float(abs(load_strip_mesh(system, self.mesh).p[1]).max())
+        else:
+            y_max = self.grid(system)[0].y_max
+        if abs(init.mean[1]) > y_max:
+            raise InputError(f"fem.transient: initial mean[1] must lie in the truncated strip "
+                             f"|y| <= y_max = {y_max:.4g}; got {init.mean[1]!r}",
+                             where="fem.transient", name="initial")
 
     def grid(self, system: VibroImpactSystem, where: str = "fem"):
         """(domain, nx, ny) of the structured mesh these options give on ``system``."""

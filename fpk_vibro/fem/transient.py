@@ -39,7 +39,7 @@ import skfem
 from .. import scales
 from .._checks import check_float
 from ..initial import parse_initial, parse_times
-from ..model import VibroImpactSystem
+from ..model import VibroImpactSystem, check_system
 from ..solution import Solution
 from .generator import assemble, assemble_tensor, element_for, quadrature_order, tensor_index
 from .options import load_strip_mesh
@@ -86,8 +86,8 @@ def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     """Build the mesh and assemble (L, M) exactly as :func:`stationary` does; with
     ``positivity`` (see the module docstring) the positive generator and the
     lumped masses instead.  Options as in :class:`fpk_vibro.fem.Options`."""
-    from . import prepare
-    return build(system, prepare(system, "transient", locals()))
+    from .options import Options
+    return build(system, Options.prepare(system, "transient", locals())[0])
 
 
 def build(system: VibroImpactSystem, opts: Any) -> Discretisation:
@@ -207,9 +207,11 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         interrupted (Ctrl-C) the finished ones, each with ``partial=True`` in
         ``info``.
     """
-    from . import prepare
+    from .options import Options
+    check_system("fem.transient", system)
     t_out = parse_times(times, "fem.transient")
-    opts = prepare(system, "transient", {**locals(), "times": t_out})
+    gaussian = parse_initial(initial, system) if isinstance(initial, dict) else None
+    opts, _ = Options.prepare(system, "transient", locals(), initial=gaussian, times=t_out)
     if opts.discretisation is not None:
         positivity = opts.discretisation.positivity
     scheme, theta, tol, dt = opts.scheme, opts.theta, opts.tol, opts.dt

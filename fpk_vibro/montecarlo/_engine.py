@@ -8,8 +8,6 @@ from typing import Any
 
 import numpy as np
 
-from .._checks import check_system
-from ..budget import enforce
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from . import _kernel as K
@@ -79,16 +77,6 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
         x_seen=[float(xext[:, 0].min()), float(xext[:, 1].max())],
         scheme=SCHEME, dt=float(dt))
     return MonteCarloSolution(system, meta, arrays)
-
-
-def _prepare(system: VibroImpactSystem, mode: str, values: dict[str, Any]) -> Options:
-    """Validated options of a call (its ``locals()``), refused beyond the budget."""
-    where = f"montecarlo.{mode}"
-    check_system(where, system)
-    opts = Options.from_call(mode, values)
-    opts.validate_for(system, mode)
-    enforce(opts.estimate(system, mode, values.get("times")), where)
-    return opts
 
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
@@ -188,7 +176,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         For an invalid argument (naming it, the allowed range and the value),
         before any simulation.
     """
-    opts = _prepare(system, "stationary", locals())
+    opts, _ = Options.prepare(system, "stationary", locals())
     r = opts.resolved(system, "stationary")
     n_paths, n_batches, t_sample, target_rse = (opts.n_paths, opts.n_batches, opts.t_sample,
                                                 opts.target_rse)
@@ -301,7 +289,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         fewer entries if interrupted by Ctrl-C.
     """
     tarr = parse_times(times, "montecarlo.transient")
-    opts = _prepare(system, "transient", {**locals(), "times": tarr})
+    opts, _ = Options.prepare(system, "transient", locals(), times=tarr)
     n_paths, n_batches, dt = opts.n_paths, opts.n_batches, opts.resolved(system, "transient")["dt"]
     ss = S.seed_sequence(opts.seed)
     quantities, max_impacts, threads = opts.quantities, opts.max_impacts, opts.threads

@@ -76,7 +76,8 @@ class Options(_Options):
                 "sample_every": S.default_sample_every(system, dt)
                 if self.sample_every is None else self.sample_every}
 
-    def validate_for(self, system: VibroImpactSystem, mode: str) -> None:
+    def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = False) -> None:
+        """Every rule joining the options to each other and to ``system``."""
         where = f"montecarlo.{mode}"
 
         def bad(name: str, allowed: str, value: Any, why: str = "") -> InputError:
