@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from . import budget
-from ._checks import InputError, check_float, closest, invalid
+from ._checks import InputError, check_float, closest, invalid, show
 from .model import FIELDS, VibroImpactSystem
 from .options import REQUIRED, Option
 
@@ -228,7 +228,7 @@ def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
             raise SceneError(f"[{table}]: unknown table; allowed {list(TABLES)}"
                              f"{closest(table, TABLES)}", name=table)
         if not isinstance(data[table], dict):
-            raise SceneError(f"{table}: must be a table [{table}]; got {data[table]!r}"[:200],
+            raise SceneError(f"{table}: must be a table [{table}]; got {show(data[table])}",
                              name=table)
     for table, keys in (("system", "a, b, c, D1"), ("study", "methods")):
         if table not in data:

@@ -13,7 +13,7 @@ import pytest
 
 from fpk_vibro import VibroImpactSystem, averaging, exact, fem, montecarlo
 from fpk_vibro import cli
-from fpk_vibro.scenes import SceneError, check_scene, load_scene, parse_scene
+from fpk_vibro.scenes import SceneError, check_scene, parse_scene
 
 PAPER = VibroImpactSystem.paper(r=0.92)
 INIT = {"mean": (0.0, 1.0), "std": (0.05, 0.05)}
