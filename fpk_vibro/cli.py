@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 import time
 from pathlib import Path
@@ -74,12 +75,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     log(f"fpk-vibro: scene {scene.name!r}: methods {list(scene.methods)}, "
         f"{scene.n_points} point(s), effects {scene.system.effects}")
     doc = run_scene(scene, out=args.out, workers=args.workers, scheduler=args.scheduler,
-                    log=log, progress=None if not args.quiet else False)
+                    log=log, progress=None if not args.quiet else False, resume=args.resume,
+                    warn=lambda s: print(s.strip(), file=sys.stderr))
     out = Path(args.out) if args.out else scene.output_dir
     if not args.quiet:
         _print_summary(doc)
         print(f"  wrote {out}/results.json")
-    return 1 if any("error" in p for p in doc["points"]) else 0
+    if doc["status"] == "interrupted":
+        n_done = sum(p.get("status") == "done" for p in doc["points"])
+        print(f"fpk-vibro: interrupted ({doc['signal']}): the run is partial, {n_done} of "
+              f"{len(doc['points'])} point(s) finished and kept in {out}/results.json; "
+              "continue with --resume", file=sys.stderr)
+        return 128 + int(getattr(signal, doc["signal"]))
+    return 1 if any(p.get("status") == "failed" for p in doc["points"]) else 0
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -133,6 +141,9 @@ def _print_summary(doc: dict) -> None:
         label = ", ".join(f"{k}={v:g}" for k, v in p["parameters"].items()) or "-"
         if "error" in p:
             print(f"  {label:<24s} FAILED: {p['error']}")
+            continue
+        if p.get("status") == "interrupted" and not p.get("methods"):
+            print(f"  {label:<24s} INTERRUPTED (not computed)")
             continue
         for method, e in p["methods"].items():
             rec = e["at"][-1] if "at" in e else e
@@ -206,6 +217,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="local worker processes for a sweep (>= 1)")
     pr.add_argument("--force", action="store_true",
                     help="run even beyond the estimated memory, time or sweep limits")
+    pr.add_argument("--resume", action="store_true",
+                    help="keep the points an earlier run of this scene finished in the "
+                         "output directory; compute the missing and interrupted ones")
     pr.add_argument("--scheduler", default=None,
                     help="Dask scheduler ADDRESS for sweeps (extra fpk-vibro[distributed])")
     pr.set_defaults(func=cmd_run)
@@ -244,9 +258,13 @@ def main(argv: list[str] | None = None) -> int:
             with unlimited():
                 return int(args.func(args) or 0)
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print("fpk-vibro: interrupted", file=sys.stderr)
-        return 130
+        return 128 + int(getattr(exc, "signum", signal.SIGINT))
+    except OSError as exc:
+        where = f" {exc.filename!r}" if getattr(exc, "filename", None) else ""
+        print(f"fpk-vibro: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        return 2
     except ValueError as exc:
         print(f"fpk-vibro: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2

@@ -148,6 +148,10 @@ class GibbsSolution(Solution):
         return {}, {}
 
     @classmethod
+    def _check_state(cls, system, meta, arrays):
+        require_gibbs(system)
+
+    @classmethod
     def _from_state(cls, system, meta, arrays):
         return cls(system)
 

@@ -15,7 +15,7 @@ from ._checks import InputError
 from .budget import Cost
 from .model import VibroImpactSystem
 
-__all__ = ["solver_kwargs", "plan", "SOLVER_QUANTITIES"]
+__all__ = ["solver_kwargs", "plan", "resolved_options", "SOLVER_QUANTITIES"]
 
 #: The histograms a Monte Carlo run can accumulate.
 SOLVER_QUANTITIES = ("energy", "x", "y", "joint")
@@ -32,6 +32,17 @@ def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> 
     if "progress" in declared:
         kw["progress"] = progress
     return {k: v for k, v in kw.items() if scene.mode in declared[k].modes}
+
+
+def resolved_options(scene: Any, method: str) -> dict[str, Any]:
+    """Every option of ``method`` as the run uses it (defaults filled in), for the record."""
+    if method == "exact":
+        return {}
+    import dataclasses
+    Options = import_module(f"fpk_vibro.{method}.options").Options
+    opts = Options.from_call(scene.mode, solver_kwargs(scene, method))
+    return {k: v for k, v in dataclasses.asdict(opts).items()
+            if scene.mode in Options.declared()[k].modes and k != "progress"}
 
 
 def plan(scene: Any, method: str, system: VibroImpactSystem) -> Cost:

@@ -19,12 +19,14 @@ def _pyplot():
 
 
 def _save(fig, path) -> Path:
-    """Lay out, write (creating the directory) and close a figure."""
+    """Lay out, write atomically (creating the directory) and close a figure."""
+    from .io import atomic_write
     fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    _pyplot().close(fig)
+    try:
+        atomic_write(path, lambda fh: fig.savefig(fh, format=path.suffix.lstrip(".") or "png"))
+    finally:
+        _pyplot().close(fig)
     return path
 
 

@@ -13,18 +13,21 @@ Layout of an output directory::
 from __future__ import annotations
 
 import importlib
-import json
 import os
+import shutil
+import signal
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
-from .io import atomic_savez, atomic_write_text
+from ._checks import InputError
+from .interrupt import Interrupted, received, signals_handled, worker_init
+from .io import atomic_json, atomic_savez
+from .outdir import OutputDir, finished_points, point_records
 from .model import VibroImpactSystem
-from .plan import solver_kwargs
+from .plan import resolved_options, solver_kwargs
 from .scales import reach as scales_reach
 from .scenes import Scene, check_scene
 
@@ -59,6 +62,13 @@ def _solve(method: str, system: VibroImpactSystem, scene: Scene,
     return module.stationary(system, **kw)
 
 
+def _partial(sol: Any) -> bool:
+    """True for a solution (or list of them) that a signal cut short."""
+    if isinstance(sol, list):
+        return bool(getattr(sol, "partial", False)) or any(_partial(s) for s in sol)
+    return bool(getattr(sol, "partial", False) or getattr(sol, "info", {}).get("partial"))
+
+
 def _moments_record(sol: Any) -> dict[str, Any]:
     rec: dict[str, Any] = {"moments": sol.moments()}
     if hasattr(sol, "moments_se"):
@@ -76,8 +86,9 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
     """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
     from . import plotting
 
-    record: dict[str, Any] = {"index": index, "parameters": params, "system": system.to_dict(),
-                              "effects": system.effects, "methods": {}}
+    record: dict[str, Any] = {"index": index, "parameters": params, "status": "done",
+                              "system": system.to_dict(), "effects": system.effects,
+                              "methods": {}}
     solutions: dict[str, Any] = {}
     for method in scene.methods:
         importlib.import_module(f"fpk_vibro.{method}")   # imports are not the method's time
@@ -85,13 +96,18 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         sol = _solve(method, system, scene, progress)
         wall = time.perf_counter() - t0
         solutions[method] = sol
-        entry: dict[str, Any] = {"wall_time_s": wall}
+        entry: dict[str, Any] = {"wall_time_s": wall, "options": resolved_options(scene, method)}
+        if _partial(sol):
+            entry["partial"] = True
+            record["status"] = "interrupted"
         if scene.transient:
             entry["times"] = list(scene.times)
             entry["at"] = [_moments_record(s) for s in sol]
         else:
             entry.update(_moments_record(sol))
         record["methods"][method] = entry
+        if record["status"] == "interrupted":
+            break
     arrays: dict[str, np.ndarray] = {}
     want_density = [q for q in scene.quantities if q != "moments"]
     if want_density:
@@ -131,7 +147,9 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         record["vtu"] = path.name
     if "npz" in scene.formats and arrays:
         atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
-    atomic_write_text(out_dir / "points" / f"p{index}.json", json.dumps(record, indent=1))
+    atomic_json(out_dir / "points" / f"p{index}.json", record)
+    if record["status"] == "interrupted":
+        raise Interrupted(received() or signal.SIGINT)
     return record
 
 
@@ -139,69 +157,141 @@ def _point_job(args: tuple) -> dict[str, Any]:
     scene, index, params, system, out_dir, progress = args
     try:
         return run_point(scene, index, params, system, out_dir, progress)
+    except Interrupted:
+        raise
     except Exception as exc:  # a failed point is reported, the others go on
-        return {"index": index, "parameters": params, "error": f"{type(exc).__name__}: {exc}"}
+        rec = {"index": index, "parameters": params, "status": "failed",
+               "error": " ".join(f"{type(exc).__name__}: {exc}".split())}
+        atomic_json(out_dir / "points" / f"p{index}.json", rec)
+        return rec
 
 
 def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | None = None,
               scheduler: str | None = None, log: Callable[[str], None] = print,
-              progress: bool | None = False) -> dict[str, Any]:
+              progress: bool | None = False, resume: bool = False,
+              warn: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run every point of ``scene``; returns (and writes) the results document.
 
-    ``progress`` (None: on a terminal) is passed to the solvers of a run in this
-    process (one point, or ``workers=1``); worker processes show none.
+    Everything is checked before any work (:func:`fpk_vibro.scenes.check_scene`,
+    the output directory, its lock).  ``progress`` (None: on a terminal) is passed
+    to the solvers of a run in this process (one point, or ``workers=1``).
+    ``resume``: keep the points an earlier run of the same scene finished in the
+    output directory and compute only the others.  SIGINT or SIGTERM stops the
+    run within about a second: workers are terminated, ``results.json`` lists every
+    finished point and marks the others ``"status": "interrupted"``, and the
+    document's ``"status"`` is ``"interrupted"`` (``"signal"`` names it).
+    ``warn`` receives failed points (default: ``log``).
     """
     check_scene(scene)                  # every check of every point, before any work
+    if scheduler is not None:
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError:
+            raise InputError("--scheduler: needs dask.distributed (pip install "
+                             "'fpk-vibro[distributed]')", name="--scheduler") from None
     out_dir = Path(out) if out is not None else scene.output_dir
-    out_dir.mkdir(parents=True, exist_ok=True)
     points = scene.points()
-    serial = scheduler is None and (len(points) == 1 or workers == 1)
-    jobs = [(scene, i, params, system, out_dir, progress if serial else False)
-            for i, (params, system) in enumerate(points)]
-    records: list[dict[str, Any]] = []
-    t0 = time.perf_counter()
+    warn = warn or log
+    with OutputDir(out_dir, "--out" if out is not None else "output.directory"), \
+            signals_handled():
+        if resume:
+            records = finished_points(out_dir, scene.source)
+        else:                          # a fresh run: no earlier run's points can mix in
+            records = {}
+            shutil.rmtree(out_dir / "points", ignore_errors=True)
+        records = {i: r for i, r in records.items() if i < len(points)}
+        if records:
+            log(f"  resuming: {len(records)} of {len(points)} point(s) already finished")
+        serial = scheduler is None and (len(points) - len(records) <= 1 or workers == 1)
+        jobs = [(scene, i, params, system, out_dir, progress if serial else False)
+                for i, (params, system) in enumerate(points) if i not in records]
+        t0 = time.perf_counter()
+        signum = None
+        try:
+            for rec in _execute(jobs, serial, workers, scheduler):
+                records[rec["index"]] = _report(rec, len(points), log, warn)
+        except Interrupted as exc:
+            signum = exc.signum
+        signum = signum or received()
+        if signum is not None:        # what workers wrote but had not yet reported
+            todo = {j[1] for j in jobs}
+            records.update({i: r for i, r in point_records(out_dir).items()
+                            if i not in records and i in todo})
+        doc = _write_results(scene, points, records, out_dir, time.perf_counter() - t0, signum)
+    return doc
+
+
+def _execute(jobs: list, serial: bool, workers: int | None, scheduler: str | None):
+    """Yield each job's record as it finishes, in this process, a pool or on Dask."""
+    if not jobs:
+        return
     if scheduler is not None:
         from dask.distributed import Client, as_completed as dask_completed
         with Client(scheduler) as client:
             futures = client.map(_point_job, jobs, pure=False)
-            for fut in dask_completed(futures):
-                records.append(_report(fut.result(), len(jobs), log))
-    elif serial:
+            try:
+                for fut in dask_completed(futures):
+                    yield fut.result()
+            except BaseException:
+                client.cancel(futures, force=True)
+                raise
+        return
+    if serial:
         for job in jobs:
-            records.append(_report(_point_job(job), len(jobs), log))
-    else:
-        with ProcessPoolExecutor(max_workers=workers or min(len(jobs), os.cpu_count() or 1)) as pool:
-            futures = [pool.submit(_point_job, job) for job in jobs]
-            for fut in as_completed(futures):
-                records.append(_report(fut.result(), len(jobs), log))
-    records.sort(key=lambda r: r["index"])
+            yield _point_job(job)
+        return
+    import multiprocessing
+    n = workers or min(len(jobs), os.cpu_count() or 1)
+    pool = multiprocessing.get_context().Pool(n, initializer=worker_init)
+    try:
+        yield from pool.imap_unordered(_point_job, jobs)
+        pool.close()
+    except BaseException:
+        pool.terminate()              # SIGTERM to every worker: they end at once
+        raise
+    finally:
+        pool.join()
+
+
+def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]],
+                   out_dir: Path, wall: float, signum: int | None) -> dict[str, Any]:
+    """results.json (every point: finished, failed or interrupted) and densities.npz."""
+    from . import __version__
+    listed = []
+    for i, (params, _) in enumerate(points):
+        listed.append(records.get(i) or {"index": i, "parameters": params,
+                                         "status": "interrupted"})
     doc = {"scene": scene.source, "name": scene.name, "stationary": not scene.transient,
-           "wall_time_s": time.perf_counter() - t0, "points": records}
-    atomic_write_text(out_dir / "results.json", json.dumps(doc, indent=1))
+           "fpk_vibro_version": __version__, "wall_time_s": wall,
+           "status": "complete" if signum is None else "interrupted", "points": listed}
+    if signum is not None:
+        doc["signal"] = signal.Signals(signum).name
+    atomic_json(out_dir / "results.json", doc)
     if "npz" in scene.formats:
         merged: dict[str, np.ndarray] = {}
-        for r in records:
+        for r in listed:
             f = out_dir / "points" / f"p{r['index']}.npz"
-            if "error" not in r and f.exists():
+            if r.get("status") == "done" and f.exists():
                 with np.load(f) as data:
                     merged.update({k: data[k] for k in data.files})
         if merged:
             atomic_savez(out_dir / "densities.npz", merged)
-            if scene.sweep and "png" in scene.formats:
+            if scene.sweep and "png" in scene.formats and signum is None:
                 from . import plotting
                 doc["figures"] = [plotting.sweep_overlay(
-                    merged, records, q, out_dir / f"sweep_{q}.png", title=scene.name).name
+                    merged, listed, q, out_dir / f"sweep_{q}.png", title=scene.name).name
                     for q in ("energy", "x", "y") if q in scene.quantities]
-                atomic_write_text(out_dir / "results.json", json.dumps(doc, indent=1))
+                atomic_json(out_dir / "results.json", doc)
     return doc
 
 
-def _report(record: dict[str, Any], total: int, log: Callable[[str], None]) -> dict[str, Any]:
+def _report(record: dict[str, Any], total: int, log: Callable[[str], None],
+            warn: Callable[[str], None]) -> dict[str, Any]:
     i = record["index"]
     params = ", ".join(f"{k}={v:g}" for k, v in record["parameters"].items()) or "single point"
-    if "error" in record:
-        log(f"  point {i + 1}/{total} ({params}) FAILED: {record['error']}")
+    if record.get("status") == "failed":
+        warn(f"  point {i + 1}/{total} ({params}) FAILED: {record['error']}")
     else:
         times = ", ".join(f"{m} {e['wall_time_s']:.2f} s" for m, e in record["methods"].items())
-        log(f"  point {i + 1}/{total} ({params}) done: {times}")
+        log(f"  point {i + 1}/{total} ({params}) {record.get('status', 'done')}: {times}")
     return record

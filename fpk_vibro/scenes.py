@@ -25,6 +25,7 @@ from . import budget
 from ._checks import InputError, check_float, closest, invalid, show
 from .model import FIELDS, VibroImpactSystem
 from .options import REQUIRED, Option
+from .outdir import safe_name
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -91,7 +92,8 @@ def _option(default: Any, doc: str, check, allowed: str, unit: str = "") -> Opti
 #: The scene's own keys (not model fields or method options).
 STUDY_KEYS: dict[str, dict[str, Option]] = {
     "study": {
-        "name": Option(None, "a label for the results", "text",
+        "name": Option(None, "a label for the results (the default directory uses it with "
+                       "every character but letters, digits, '.', '_', '-' replaced)", "text",
                        auto="the scene file's name"),
         "methods": _option(REQUIRED, "the methods to run", _subset(METHODS),
                            f"list of {', '.join(METHODS)}"),
@@ -324,7 +326,7 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                          name="initial")
     scene_name = study.get("name") or name
     out = clean["output"].get("directory")
-    out_dir = Path(out) if out else Path("results") / scene_name
+    out_dir = Path(out) if out else Path("results") / safe_name(scene_name)
     if base is not None and not out_dir.is_absolute() and out:
         out_dir = base / out_dir
     return Scene(name=scene_name, system=system, methods=methods,

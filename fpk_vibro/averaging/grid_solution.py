@@ -11,7 +11,7 @@ import numpy as np
 
 from ..model import VibroImpactSystem
 from ..orbits import orbit_nodes
-from ..solution import Solution
+from ..solution import Rule, Solution, Stored
 
 __all__ = ["EnergyGridSolution"]
 
@@ -102,6 +102,14 @@ class EnergyGridSolution(Solution):
     # -- persistence --------------------------------------------------------------
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         return {"time": self.time}, {"faces": self.faces, "density": self.density}
+
+    _meta_schema = {"time": Rule.number(0.0, none=True)}
+
+    @classmethod
+    def _array_schema(cls, meta):
+        """Cell faces (n, increasing) and the cell densities (n - 1, non-negative)."""
+        return {"faces": Stored(("faces",), min_size=2, increasing=True),
+                "density": Stored(("faces-1",), nonneg=True)}
 
     @classmethod
     def _from_state(cls, system, meta, arrays):

@@ -28,7 +28,7 @@ from numpy.polynomial import legendre as L
 
 from ..model import VibroImpactSystem
 from ..orbits import orbit_nodes
-from ..solution import Solution
+from ..solution import MOMENT_KEYS, Rule, Solution, Stored
 from .coefficients import _gl, _panel_nodes, _rate
 from .options import Options
 
@@ -197,6 +197,27 @@ class AveragedSolution(Solution):
             arrays[f"{name}_coef"] = reg.coef
             arrays[f"{name}_phi0"] = reg.phi0
         return meta, arrays
+
+    _meta_schema = {"n_theta": Rule.integer(1), "n_panel": Rule.integer(1),
+                    "phi_cut": Rule.number(0.0, lo_open=True), "Z": Rule.number(0.0, lo_open=True),
+                    "H_end": Rule.number(0.0), "f_end": Rule.number(),
+                    "moments": Rule.mapping(Rule.number(), MOMENT_KEYS[:5], MOMENT_KEYS)}
+
+    @classmethod
+    def _array_schema(cls, meta):
+        """Per regime: panel edges (n), Legendre coefficients (n_panel + 1, n - 1), Φ₀ (n - 1)."""
+        rows, out = meta["n_panel"] + 1, {}
+        for r, least in (("low", 2), ("high", 1)):
+            out[f"{r}_edges"] = Stored((r,), min_size=least, nonneg=True, increasing=True)
+            out[f"{r}_coef"] = Stored((rows, f"{r}-1"))
+            out[f"{r}_phi0"] = Stored((f"{r}-1",))
+        return out
+
+    @classmethod
+    def _check_state(cls, system, meta, arrays):
+        if ("P_impact" in meta["moments"]) != system.has_barrier:
+            raise ValueError("meta['moments'] must hold P_impact exactly when the system "
+                             f"has a barrier (barriers={system.barriers!r})")
 
     @classmethod
     def _from_state(cls, system, meta, arrays):

@@ -6,7 +6,8 @@ from typing import Any
 import numpy as np
 
 from ..model import VibroImpactSystem
-from ..solution import Solution
+from ..model import BARRIER_KINDS
+from ..solution import Rule, Solution, Stored
 
 __all__ = ["MonteCarloSolution", "QUANTITIES"]
 
@@ -147,6 +148,32 @@ class MonteCarloSolution(Solution):
     # -- persistence --------------------------------------------------------------
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         return dict(self._meta), dict(self._arrays)
+
+    _meta_schema = {
+        "dt": Rule.number(0.0, lo_open=True), "n_paths": Rule.integer(1),
+        "n_batches": Rule.integer(1), "t_sample": Rule.number(0.0), "t_burn": Rule.number(0.0),
+        "time": Rule.number(0.0, none=True), "seed_entropy": Rule.ANY, "partial": Rule.FLAG,
+        "impact_rate": Rule.number(0.0, nan=True), "impact_rate_se": Rule.number(0.0, nan=True),
+        "n_samples": Rule.integer(0), "sample_every": Rule.integer(0),
+        "quantities": Rule(f"a list of distinct names from {list(QUANTITIES)}",
+                           lambda v: isinstance(v, list) and len(set(map(str, v))) == len(v)
+                           and all(q in QUANTITIES for q in v)),
+        "mode": Rule.choice(*BARRIER_KINDS),
+        "overflow": Rule.mapping(Rule.number(0.0, hi=1.0)),
+        "x_seen": Rule.listing(Rule.number(nan=True), 2), "scheme": Rule.TEXT}
+
+    @classmethod
+    def _array_schema(cls, meta):
+        """Moments and their errors (6 each); per histogram: edges, density, error."""
+        out = {"moments": Stored((len(_MOMENT_NAMES),)),
+               "moments_se": Stored((len(_MOMENT_NAMES),), nonneg=True, nan_ok=True)}
+        for q in meta["quantities"]:
+            for e in _HISTS[q]:
+                out[e] = Stored((e,), min_size=2, increasing=True)
+            bins = tuple(f"{e}-1" for e in _HISTS[q])
+            out[f"density_{q}"] = Stored(bins, nonneg=True)
+            out[f"se_{q}"] = Stored(bins, nonneg=True, nan_ok=True)
+        return out
 
     @classmethod
     def _from_state(cls, system: VibroImpactSystem, meta: dict[str, Any],

@@ -1,0 +1,105 @@
+"""The output directory of a run: one run at a time, checked before any work.
+
+A run holds an exclusive lock on ``DIR/.fpk-vibro.lock`` (``fcntl.flock``) from
+its first write to its last: a second run into the same directory is refused
+with one line, so two runs never mix their data.  The lock dies with its
+process (also under ``kill -9``), so a stale lock file never blocks a later run.
+The directory must be a directory and writable; the check happens before any
+point is computed.
+
+:func:`finished_points` reads back what an earlier run of the same scene
+finished (``points/p{i}.json``), for ``fpk-vibro run --resume``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+from ._checks import InputError
+
+__all__ = ["OutputDir", "safe_name", "finished_points", "point_records", "LOCK_NAME"]
+
+LOCK_NAME = ".fpk-vibro.lock"
+
+
+def safe_name(name: str) -> str:
+    """``name`` as one path component: letters, digits, '.', '_', '-' (no leading dot)."""
+    out = re.sub(r"[^A-Za-z0-9._-]+", "_", name).lstrip("._")
+    return out[:100] or "scene"
+
+
+class OutputDir:
+    """Context manager: the locked, writable output directory ``path``."""
+
+    def __init__(self, path: str | os.PathLike, key: str = "--out") -> None:
+        self.path, self.key = Path(path), key
+        self._fd: int | None = None
+
+    def __enter__(self) -> "OutputDir":
+        import fcntl
+        p = self.path
+        if p.exists() and not p.is_dir():
+            raise InputError(f"{self.key}: {str(p)!r} exists and is not a directory",
+                             name=self.key)
+        try:
+            p.mkdir(parents=True, exist_ok=True)
+            fd = os.open(p / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise InputError(f"{self.key}: cannot write to {str(p)!r} "
+                             f"({exc.strerror or exc})", name=self.key) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise InputError(f"{self.key}: {str(p)!r} is in use by another run; wait for it "
+                             "or choose another output directory", name=self.key) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._fd is not None:
+            try:
+                os.unlink(self.path / LOCK_NAME)
+            except OSError:
+                pass
+            os.close(self._fd)          # releases the lock
+            self._fd = None
+
+
+def point_records(path: Path) -> dict[int, dict[str, Any]]:
+    """{index: record} of every readable ``points/p{i}.json`` in ``path``."""
+    out = {}
+    for f in sorted((path / "points").glob("p*.json")):
+        try:
+            rec = json.loads(f.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue                      # a damaged record is computed again
+        if isinstance(rec, dict) and isinstance(rec.get("index"), int):
+            out[rec["index"]] = rec
+    return out
+
+
+def finished_points(path: Path, source: dict[str, Any]) -> dict[int, dict[str, Any]]:
+    """{index: record} of the points an earlier run of the scene ``source`` finished
+    or failed in ``path`` (interrupted and missing points are left out).
+
+    Raises :class:`InputError` if ``path`` holds the results of another scene.
+    """
+    results = path / "results.json"
+    if results.exists():
+        try:
+            old = json.loads(results.read_text(encoding="utf-8"))
+            same = old.get("scene") == json.loads(json.dumps(source))
+        except (OSError, ValueError, AttributeError):
+            same = False
+        if not same:
+            raise InputError(f"--resume: {str(results)!r} holds the results of another scene "
+                             "(or is unreadable); choose another output directory",
+                             name="--resume")
+    return {i: r for i, r in point_records(path).items()
+            if r.get("status") in ("done", "failed")}
