@@ -161,3 +161,31 @@ def test_positive_fem_transient_scene(tmp_path):
     for s in sols:
         assert s.info["positivity"] is True and s.info["scheme"] == "theta"
         assert s.min_density >= -1e-14 * s.dofs.max() and abs(s.mass - 1) < 1e-12
+
+
+def test_quiet_still_reports_a_failed_point(tmp_path, monkeypatch, capsys):
+    from fpk_vibro import cli, runner
+    solve = runner._solve
+
+    def failing(method, system, scene, progress=False):
+        if system.r == 0.5:
+            raise RuntimeError("the solver broke")
+        return solve(method, system, scene, progress)
+
+    monkeypatch.setattr(runner, "_solve", failing)
+    scene = write(tmp_path, AVG_ONLY + "\n[sweep]\nr = [0.92, 0.5]\n")
+    assert cli.main(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet",
+                     "--workers", "1"]) == 1
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "r=0.5" in err and "the solver broke" in err
+
+
+def test_scheduler_without_dask_is_one_line(tmp_path, monkeypatch, capsys):
+    from fpk_vibro import cli
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)
+    scene = write(tmp_path, AVG_ONLY)
+    assert cli.main(["run", str(scene), "--out", str(tmp_path / "o"),
+                     "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--scheduler" in err and "distributed" in err
+    assert not (tmp_path / "o").exists()
