@@ -149,6 +149,7 @@ class GibbsSolution(Solution):
 
     @classmethod
     def _check_state(cls, system, meta, arrays):
+        """The stored system must be one the Gibbs density is exact for."""
         require_gibbs(system)
 
     @classmethod

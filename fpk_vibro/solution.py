@@ -12,162 +12,31 @@ File format (``Solution.save``): a NumPy ``.npz`` archive holding
 ``Solution.load(path)`` reads any of them back as the class that wrote it; the
 loaded object evaluates every density and moment to the same bits as the saved one.
 
-Before building anything, ``load`` checks the file: a zip of ``.npy`` members (never
-unpickled), the format and version, the JSON of ``system`` (a valid
-:class:`~fpk_vibro.VibroImpactSystem`) and ``meta`` (against the class's
-:attr:`Solution._meta_schema`), and every array against the class's
-:meth:`Solution._array_schema` (names, dtypes, shapes, finite values, signs).
-Any problem is one ``ValueError`` line naming the file.  The class of a kind is
-found through :data:`KIND_MODULES`, imported on demand.
+- ``package`` : the version of fpk_vibro that wrote it.
+
+Before building anything, ``load`` checks the file (:mod:`fpk_vibro.solution_file`):
+any problem is one ``ValueError`` line naming the file.  The class of a kind is
+found through :data:`~fpk_vibro.solution_file.KIND_MODULES`, imported on demand.
 """
 from __future__ import annotations
 
 import abc
-import dataclasses
-import importlib
-import io
 import json
-import math
 import os
-import re
-import stat
-import zipfile
-import zlib
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
-from ._checks import InputError, interval, show
+from ._checks import InputError, invalid
 from .io import atomic_write
 from .model import VibroImpactSystem
+from .solution_file import (FORMAT_NAME, FORMAT_VERSION, KIND_MODULES, RESERVED, Corrupt,
+                            Rule, Stored, open_archive, read)
 
 __all__ = ["Solution", "MOMENT_KEYS", "KIND_MODULES", "Rule", "Stored"]
 
 MOMENT_KEYS = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
-FORMAT_NAME = "fpk_vibro.solution"
-FORMAT_VERSION = 1
-
-#: Where the class of each stored ``kind`` lives (imported on demand by ``load``).
-KIND_MODULES = {"averaging": "fpk_vibro.averaging", "averaging_grid": "fpk_vibro.averaging",
-                "exact": "fpk_vibro.exact", "fem": "fpk_vibro.fem",
-                "montecarlo": "fpk_vibro.montecarlo"}
-_RESERVED = ("format", "version", "kind", "system", "meta")
-
-
-class _Corrupt(Exception):
-    """A problem with a solution file (message without the file name)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Rule:
-    """What one ``meta`` value must be.
-
-    Attributes
-    ----------
-    allowed : str
-        The rule in words, for the message (``"an integer >= 1"``).
-    ok : callable
-        ``ok(value) -> bool``.
-    required : bool
-        False: the key may be absent.
-    """
-
-    allowed: str
-    ok: Callable[[Any], bool]
-    required: bool = True
-    FLAG: ClassVar["Rule"]
-    TEXT: ClassVar["Rule"]
-    ANY: ClassVar["Rule"]
-    SCALAR: ClassVar["Rule"]
-
-    # -- the vocabulary ------------------------------------------------------------
-    @staticmethod
-    def number(lo: float = -math.inf, *, lo_open: bool = False, hi: float = math.inf,
-               nan: bool = False, none: bool = False) -> "Rule":
-        """A finite int or float in [lo, hi] (or (lo, hi]); optionally NaN or None."""
-        def ok(v):
-            if v is None or isinstance(v, bool) or not isinstance(v, (int, float)):
-                return none and v is None
-            if isinstance(v, float) and math.isnan(v):
-                return nan
-            return math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi
-        words = interval(lo, hi, lo_open, False) + (", or NaN" if nan else "") \
-            + (", or null" if none else "")
-        return Rule(words, ok)
-
-    @staticmethod
-    def integer(lo: int, hi: int | None = None) -> "Rule":
-        """An int (not a bool) in [lo, hi]."""
-        return Rule(f"an integer in [{lo}, {hi}]" if hi is not None else f"an integer >= {lo}",
-                    lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= lo
-                    and (hi is None or v <= hi))
-
-    @staticmethod
-    def choice(*values: Any) -> "Rule":
-        """One of ``values`` (same type and value)."""
-        return Rule(f"one of {list(values)}",
-                    lambda v: any(type(v) is type(c) and v == c for c in values))
-
-    @staticmethod
-    def listing(item: "Rule", size: int | None = None) -> "Rule":
-        """A list of ``size`` (any if None) values each obeying ``item``."""
-        n = "" if size is None else f" of {size}"
-        return Rule(f"a list{n} whose items are each {item.allowed}",
-                    lambda v: isinstance(v, list) and (size is None or len(v) == size)
-                    and all(item.ok(x) for x in v))
-
-    @staticmethod
-    def mapping(item: "Rule", needs: tuple = (), keys: tuple | None = None) -> "Rule":
-        """An object with the keys ``needs`` (and only ``keys``, if given) and ``item`` values."""
-        words = "an object" + (f" with keys {list(needs)}" if needs else "") \
-            + (f" (of {list(keys)})" if keys else "") + f" whose values are each {item.allowed}"
-        return Rule(words, lambda v: isinstance(v, dict) and set(needs) <= set(v)
-                    and (keys is None or set(v) <= set(keys)) and all(item.ok(x) for x in v.values()))
-
-    def optional(self) -> "Rule":
-        """The same rule for a key that may be absent."""
-        return dataclasses.replace(self, required=False)
-
-
-Rule.FLAG = Rule("true or false", lambda v: isinstance(v, bool))
-Rule.TEXT = Rule("a string", lambda v: isinstance(v, str))
-Rule.ANY = Rule("any JSON value", lambda v: True)
-Rule.SCALAR = Rule("a number, string, boolean or null",
-                   lambda v: v is None or isinstance(v, (bool, int, float, str)))
-
-
-@dataclasses.dataclass(frozen=True)
-class Stored:
-    """How one stored array must look.
-
-    Attributes
-    ----------
-    shape : tuple
-        One entry per axis: an int, or a size name (``"n"``, ``"n-1"``, ``"n+1"``)
-        shared between the arrays of one file (bound by its first use, in schema order).
-    dtype : {"float", "int"}
-        float64 or int64.
-    min_size : int
-        Fewest elements.
-    nonneg : bool
-        Values ≥ 0 (to round-off: ≥ -1e-9 max |value|).
-    nan_ok : bool
-        NaN allowed (e.g. a standard error from one batch); ±inf never is.
-    increasing : bool
-        Strictly increasing (bin edges, grid nodes).
-    below : str or None
-        int arrays: every value an index in [0, size ``below``).
-    """
-
-    shape: tuple
-    dtype: str = "float"
-    min_size: int = 0
-    nonneg: bool = False
-    nan_ok: bool = False
-    increasing: bool = False
-    below: str | None = None
 
 
 class Solution(abc.ABC):
@@ -243,8 +112,7 @@ class Solution(abc.ABC):
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
         meta, arrays = self._state()
-        reserved = {"format", "version", "kind", "system", "meta"}
-        clash = reserved & set(arrays)
+        clash = set(RESERVED) & set(arrays)
         if clash:
             raise RuntimeError(f"state arrays use reserved names {sorted(clash)}")
         payload = {
@@ -253,6 +121,7 @@ class Solution(abc.ABC):
             "kind": np.array(self.kind),
             "system": np.array(self.system.to_json()),
             "meta": np.array(json.dumps(meta, sort_keys=True)),
+            "package": np.array(_package_version()),
             **{k: np.asarray(v) for k, v in arrays.items()},
         }
         atomic_write(path, lambda fh: np.savez(fh, **payload))
@@ -281,19 +150,14 @@ class Solution(abc.ABC):
             misshapen array, non-finite or negative values where they cannot occur.
         """
         if not isinstance(path, (str, os.PathLike)):
-            raise InputError(f"Solution.load: path must be a file path; got {show(path)}",
-                             where="Solution.load", name="path")
+            raise invalid("Solution.load", "path", "a file path", path)
         name = os.fsdecode(path)
         name = name if name.isprintable() else repr(name)
         try:
-            with _open_zip(path) as zf:
-                target, system, meta = _read_header(zf)
-                if cls is not Solution and not issubclass(target, cls):
-                    raise _Corrupt(f"holds a {target.__name__}, not a {cls.__name__}")
-                arrays = _read_arrays(zf, target._array_schema(meta))
-            target._check_state(system, meta, arrays)
+            with open_archive(path) as zf:
+                target, system, meta, arrays = read(zf, Solution._registry, cls)
             return target._from_state(system, meta, arrays)
-        except (_Corrupt, ValueError) as exc:
+        except (Corrupt, ValueError) as exc:
             problem = " ".join(str(exc).split())
             raise InputError(f"{name}: {problem}", where=name, name="path") from None
 
@@ -301,183 +165,6 @@ class Solution(abc.ABC):
         return f"{type(self).__name__}(system={self.system!r})"
 
 
-# -- reading and checking a file ---------------------------------------------------
-def _open_zip(path: str | os.PathLike) -> zipfile.ZipFile:
-    """The zip archive at ``path``; _Corrupt if there is none."""
-    try:
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        raise _Corrupt("no such file") from None
-    except OSError as exc:
-        raise _Corrupt(f"cannot be read ({exc.strerror or exc})") from None
-    if stat.S_ISDIR(mode):
-        raise _Corrupt("is a directory, not an fpk_vibro solution file")
-    if not stat.S_ISREG(mode):
-        raise _Corrupt("is not a regular file")
-    try:
-        return zipfile.ZipFile(path)
-    except PermissionError as exc:
-        raise _Corrupt(f"cannot be read ({exc.strerror})") from None
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError):
-        raise _Corrupt("not an fpk_vibro solution file (not a zip archive)") from None
-
-
-def _member(zf: zipfile.ZipFile, key: str) -> np.ndarray:
-    """Array ``key`` of the archive, read as ``np.load`` does, after checking its header
-    against the bytes present (no pickles, no allocation beyond what the file holds)."""
-    try:
-        raw = zf.read(key + ".npy")
-        fh = io.BytesIO(raw)
-        version = np.lib.format.read_magic(fh)
-        if version not in ((1, 0), (2, 0)):
-            raise _Corrupt(f"array {key!r} has .npy format version {version}, not 1.0 or 2.0")
-        read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                else np.lib.format.read_array_header_2_0)
-        shape, _, dtype = read(fh)
-        if dtype.hasobject:
-            raise _Corrupt(f"array {key!r} holds Python objects (pickled data, never loaded)")
-        if fh.tell() + math.prod(shape) * dtype.itemsize != len(raw):
-            raise _Corrupt(f"array {key!r} is truncated or padded ({len(raw) - fh.tell()} "
-                           f"data bytes for shape {shape} of {dtype})")
-        fh.seek(0)
-        return np.lib.format.read_array(fh, allow_pickle=False)
-    except _Corrupt:
-        raise
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError,
-            NotImplementedError, RuntimeError, OverflowError) as exc:
-        why = " ".join(str(exc).split())[:120]
-        raise _Corrupt(f"array {key!r} cannot be read ({type(exc).__name__}: {why})") from None
-
-
-def _read_header(zf: zipfile.ZipFile) -> tuple[type[Solution], VibroImpactSystem, dict]:
-    """(class, system, meta) from the reserved members, each checked."""
-    names = zf.namelist()
-    if "format.npy" not in names:
-        raise _Corrupt("not an fpk_vibro solution file (no 'format' member)")
-    text = {}
-    for key in ("format", "version", "kind", "system", "meta"):
-        if key + ".npy" not in names:
-            raise _Corrupt(f"member {key!r} is missing")
-        a = _member(zf, key)
-        want = "i" if key == "version" else "U"
-        if a.ndim != 0 or a.dtype.kind != want:
-            raise _Corrupt(f"member {key!r} must be a single {'integer' if want == 'i' else 'string'}"
-                           f"; got dtype {a.dtype}, shape {a.shape}")
-        text[key] = int(a) if key == "version" else str(a)
-    if text["format"] != FORMAT_NAME:
-        raise _Corrupt(f"not an fpk_vibro solution file (format {show(text['format'])})")
-    version = text["version"]
-    if version > FORMAT_VERSION:
-        raise _Corrupt(f"format version {version} is newer than this fpk_vibro reads "
-                       f"({FORMAT_VERSION})")
-    if version < 1:
-        raise _Corrupt(f"format version must be an integer in [1, {FORMAT_VERSION}]; got {version}")
-    kind = text["kind"]
-    if kind not in KIND_MODULES:
-        raise _Corrupt(f"unknown solution kind {show(kind)}; known: {sorted(KIND_MODULES)}")
-    importlib.import_module(KIND_MODULES[kind])
-    target = Solution._registry.get(kind)
-    if target is None:      # a package bug, not a file problem
-        raise RuntimeError(f"{KIND_MODULES[kind]} defines no Solution of kind {kind!r}")
-    system = _system(_json(text["system"], "system"))
-    meta = _json(text["meta"], "meta")
-    for key, rule in target._meta_schema.items():
-        if key not in meta:
-            if rule.required:
-                raise _Corrupt(f"meta misses key {key!r} ({rule.allowed})")
-        elif not rule.ok(meta[key]):
-            raise _Corrupt(f"meta[{key!r}] must be {rule.allowed}; got {show(meta[key])}")
-    return target, system, meta
-
-
-def _json(text: str, what: str) -> dict:
-    """The JSON object in member ``what``."""
-    try:
-        value = json.loads(text)
-    except (ValueError, RecursionError) as exc:
-        why = exc.args[0] if isinstance(exc, json.JSONDecodeError) else type(exc).__name__
-        raise _Corrupt(f"member {what!r} is not valid JSON ({why})") from None
-    if not isinstance(value, dict):
-        raise _Corrupt(f"member {what!r} must be a JSON object; got {show(value)}")
-    return value
-
-
-def _system(fields: dict) -> VibroImpactSystem:
-    """The system described by ``fields`` (the dataclass validates the values)."""
-    known = {f.name: f for f in dataclasses.fields(VibroImpactSystem)}
-    unknown = sorted(set(fields) - set(known))
-    if unknown:
-        raise _Corrupt(f"system has unknown field(s) {unknown}")
-    missing = sorted(k for k, f in known.items() if k not in fields
-                     and f.default is dataclasses.MISSING)
-    if missing:
-        raise _Corrupt(f"system misses field(s) {missing}")
-    try:
-        return VibroImpactSystem(**fields)
-    except (ValueError, TypeError) as exc:
-        raise _Corrupt(f"invalid system ({exc})") from None
-
-
-def _read_arrays(zf: zipfile.ZipFile, schema: dict[str, Stored]) -> dict[str, np.ndarray]:
-    """The arrays of ``schema`` from the archive, each checked; no others may be present."""
-    present = []
-    for member in zf.namelist():
-        key = member[:-4] if member.endswith(".npy") else None
-        if key is None or (key not in schema and key not in _RESERVED):
-            raise _Corrupt(f"unexpected member {show(member)}"
-                           + (f"; expected {sorted(schema)}" if schema else "; expected no arrays"))
-        present.append(key)
-    sizes: dict[str, int] = {}
-    arrays = {}
-    for key, spec in schema.items():
-        if key not in present:
-            raise _Corrupt(f"array {key!r} is missing")
-        arrays[key] = a = _member(zf, key)
-        _check_array(key, a, spec, sizes)
-    return arrays
-
-
-def _dim(expr: int | str, sizes: dict[str, int], actual: int | None) -> int | str:
-    """The size ``expr`` stands for (binding its name to ``actual`` if unbound)."""
-    if isinstance(expr, int):
-        return expr
-    m = re.fullmatch(r"(\w+)([+-]\d+)?", expr)
-    name, offset = m[1], int(m[2] or 0)
-    if name not in sizes:
-        if actual is None:
-            return expr
-        sizes[name] = actual - offset
-    return sizes[name] + offset
-
-
-def _check_array(key: str, a: np.ndarray, spec: Stored, sizes: dict[str, int]) -> None:
-    """Raise _Corrupt unless ``a`` obeys ``spec``; binds the size names it introduces."""
-    want = np.dtype(np.float64 if spec.dtype == "float" else np.int64)
-    if a.dtype.kind != want.kind or a.dtype.itemsize != want.itemsize:
-        raise _Corrupt(f"array {key!r} has dtype {a.dtype}, expected {want}")
-    trial = dict(sizes)
-    if a.ndim == len(spec.shape):
-        expected = tuple(_dim(d, trial, n) for d, n in zip(spec.shape, a.shape))
-    else:
-        expected = tuple(_dim(d, trial, None) for d in spec.shape)
-    if a.shape != expected:
-        shown = "(" + ", ".join(map(str, expected)) + ("," if len(expected) == 1 else "") + ")"
-        raise _Corrupt(f"array {key!r} has shape {a.shape}, expected {shown}")
-    sizes.update(trial)
-    if a.size < spec.min_size:
-        raise _Corrupt(f"array {key!r} has {a.size} values, expected at least {spec.min_size}")
-    if spec.dtype == "int":
-        if spec.below is not None and a.size and (a.min() < 0 or a.max() >= sizes[spec.below]):
-            raise _Corrupt(f"array {key!r} holds indices outside [0, {sizes[spec.below]})")
-        return
-    bad = ~np.isfinite(a) & ~(np.isnan(a) if spec.nan_ok else False)
-    if bad.any():
-        raise _Corrupt(f"array {key!r} holds {int(bad.sum())} non-finite value(s) "
-                       f"({a.flat[np.flatnonzero(bad)[0]]} at flat index {np.flatnonzero(bad)[0]})")
-    if spec.nonneg and a.size:
-        lowest, scale = np.nanmin(a, initial=0.0), np.nanmax(np.abs(a), initial=0.0)
-        if lowest < -1e-9 * scale:
-            raise _Corrupt(f"array {key!r} holds negative values (min {lowest:.6g}); "
-                           f"it cannot be negative")
-    if spec.increasing and a.size > 1 and not np.all(np.diff(a) > 0):
-        raise _Corrupt(f"array {key!r} is not strictly increasing")
+def _package_version() -> str:
+    from . import __version__
+    return __version__

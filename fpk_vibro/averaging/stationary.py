@@ -198,9 +198,10 @@ class AveragedSolution(Solution):
             arrays[f"{name}_phi0"] = reg.phi0
         return meta, arrays
 
-    _meta_schema = {"n_theta": Rule.integer(1), "n_panel": Rule.integer(1),
-                    "phi_cut": Rule.number(0.0, lo_open=True), "Z": Rule.number(0.0, lo_open=True),
-                    "H_end": Rule.number(0.0), "f_end": Rule.number(),
+    _meta_schema = {**{k: Rule.of(Options.declared()[k])
+                       for k in ("n_theta", "n_panel", "phi_cut")},
+                    "Z": Rule.number(0.0, lo_open=True), "H_end": Rule.number(0.0),
+                    "f_end": Rule.number(),
                     "moments": Rule.mapping(Rule.number(), MOMENT_KEYS[:5], MOMENT_KEYS)}
 
     @classmethod
@@ -215,6 +216,7 @@ class AveragedSolution(Solution):
 
     @classmethod
     def _check_state(cls, system, meta, arrays):
+        """P_impact among the moments exactly when the system has a barrier."""
         if ("P_impact" in meta["moments"]) != system.has_barrier:
             raise ValueError("meta['moments'] must hold P_impact exactly when the system "
                              f"has a barrier (barriers={system.barriers!r})")

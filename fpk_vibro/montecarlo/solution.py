@@ -5,8 +5,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import VibroImpactSystem
-from ..model import BARRIER_KINDS
+from ..model import BARRIER_KINDS, VibroImpactSystem
 from ..solution import Rule, Solution, Stored
 
 __all__ = ["MonteCarloSolution", "QUANTITIES"]
