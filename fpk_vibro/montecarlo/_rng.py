@@ -14,8 +14,12 @@ import math
 import numpy as np
 from numba import njit
 
-# only fused multiply-add contraction: no reassociation, NaN/inf semantics kept
-FASTMATH = {"contract"}
+# No fast-math flags, not even "contract": with contraction LLVM chooses which product
+# of a*b + c*d to fuse, and chose differently in a function's own compiled code and in
+# the copy linked into its caller; which of the two a process runs depends on what it
+# compiled or loaded from the cache first (a cold and a warm cache gave different
+# bits).  The kernels' fused multiply-adds are written out instead (``_kernel._fma``).
+FASTMATH = False
 
 _U11 = np.uint64(11)
 _U17 = np.uint64(17)
