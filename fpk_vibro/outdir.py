@@ -20,7 +20,8 @@ from typing import Any
 
 from ._checks import InputError
 
-__all__ = ["OutputDir", "safe_name", "finished_points", "point_records", "LOCK_NAME"]
+__all__ = ["OutputDir", "safe_name", "finished_points", "point_records", "holds",
+           "LOCK_NAME"]
 
 LOCK_NAME = ".fpk-vibro.lock"
 
@@ -37,6 +38,9 @@ class OutputDir:
     def __init__(self, path: str | os.PathLike, key: str = "--out") -> None:
         self.path, self.key = Path(path), key
         self._fd: int | None = None
+        #: Names this run in the lock file: a task of a cancelled run (a Dask worker
+        #: cannot be stopped mid-task) checks it before writing (:func:`holds`).
+        self.token = os.urandom(8).hex()
 
     def __enter__(self) -> "OutputDir":
         import fcntl
@@ -57,7 +61,7 @@ class OutputDir:
             raise InputError(f"{self.key}: {str(p)!r} is in use by another run; wait for it "
                              "or choose another output directory", name=self.key) from None
         os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
+        os.write(fd, f"{os.getpid()} {self.token}\n".encode())
         self._fd = fd
         return self
 
@@ -69,6 +73,14 @@ class OutputDir:
                 pass
             os.close(self._fd)          # releases the lock
             self._fd = None
+
+
+def holds(path: Path, token: str) -> bool:
+    """True while the run named ``token`` holds the lock of ``path``."""
+    try:
+        return (path / LOCK_NAME).read_text(encoding="ascii").split()[1:] == [token]
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
 
 
 def point_records(path: Path) -> dict[int, dict[str, Any]]:

@@ -25,7 +25,7 @@ import numpy as np
 from ._checks import InputError
 from .interrupt import Interrupted, received, signals_handled, worker_init
 from .io import atomic_json, atomic_savez
-from .outdir import OutputDir, finished_points, point_records
+from .outdir import OutputDir, finished_points, holds, point_records
 from .model import VibroImpactSystem
 from .plan import resolved_options, solver_kwargs
 from .scales import reach as scales_reach
@@ -82,7 +82,8 @@ def _moments_record(sol: Any) -> dict[str, Any]:
 
 
 def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
-              out_dir: Path, progress: bool | None = False) -> dict[str, Any]:
+              out_dir: Path, progress: bool | None = False, token: str | None = None
+              ) -> dict[str, Any]:
     """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
     from . import plotting
 
@@ -108,6 +109,8 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         record["methods"][method] = entry
         if record["status"] == "interrupted":
             break
+    if token is not None and not holds(out_dir, token):
+        raise RuntimeError("the run was stopped; this point's result is discarded")
     arrays: dict[str, np.ndarray] = {}
     want_density = [q for q in scene.quantities if q != "moments"]
     if want_density:
@@ -154,15 +157,16 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
 
 
 def _point_job(args: tuple) -> dict[str, Any]:
-    scene, index, params, system, out_dir, progress = args
+    scene, index, params, system, out_dir, progress, token = args
     try:
-        return run_point(scene, index, params, system, out_dir, progress)
+        return run_point(scene, index, params, system, out_dir, progress, token)
     except Interrupted:
         raise
     except Exception as exc:  # a failed point is reported, the others go on
         rec = {"index": index, "parameters": params, "status": "failed",
                "error": " ".join(f"{type(exc).__name__}: {exc}".split())}
-        atomic_json(out_dir / "points" / f"p{index}.json", rec)
+        if token is None or holds(out_dir, token):
+            atomic_json(out_dir / "points" / f"p{index}.json", rec)
         return rec
 
 
@@ -192,7 +196,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
     out_dir = Path(out) if out is not None else scene.output_dir
     points = scene.points()
     warn = warn or log
-    with OutputDir(out_dir, "--out" if out is not None else "output.directory"), \
+    with OutputDir(out_dir, "--out" if out is not None else "output.directory") as lock, \
             signals_handled():
         if resume:
             records = finished_points(out_dir, scene.source)
@@ -203,7 +207,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
         if records:
             log(f"  resuming: {len(records)} of {len(points)} point(s) already finished")
         serial = scheduler is None and (len(points) - len(records) <= 1 or workers == 1)
-        jobs = [(scene, i, params, system, out_dir, progress if serial else False)
+        jobs = [(scene, i, params, system, out_dir, progress if serial else False, lock.token)
                 for i, (params, system) in enumerate(points) if i not in records]
         t0 = time.perf_counter()
         signum = None

@@ -301,3 +301,22 @@ def test_results_json_is_strict_and_readable_by_colleagues(tmp_path):
     for f in (tmp_path / "o").rglob("*"):
         if f.is_file():
             assert f.stat().st_mode & 0o044 == 0o044 & ~_umask(), f
+
+
+def test_a_task_of_a_stopped_run_writes_nothing(tmp_path):
+    """A Dask task cannot be killed: when it ends after its run stopped, it must not
+    write into the directory (another run may own it by then)."""
+    from fpk_vibro.outdir import OutputDir
+    from fpk_vibro.runner import _point_job
+    from fpk_vibro.scenes import load_scene
+    path = tmp_path / "s.toml"
+    path.write_text(AVG)
+    sc = load_scene(path)
+    params, system = sc.points()[0]
+    out = tmp_path / "o"
+    with OutputDir(out) as lock:
+        rec = _point_job((sc, 0, params, system, out, False, "stale-token"))
+        assert rec["status"] == "failed" and "stopped" in rec["error"]
+        assert not [f for f in out.rglob("*") if f.is_file() and f.name != ".fpk-vibro.lock"]
+        rec = _point_job((sc, 0, params, system, out, False, lock.token))
+        assert rec["status"] == "done" and (out / "points" / "p0.json").exists()
