@@ -39,34 +39,18 @@ Measured (exact case r = 1, D2 = 0, paper a, b, c, D1, Δ; ny = 4 nx)
 """
 from __future__ import annotations
 
-import time
-
-import numpy as np
-import skfem
-
 from ..model import VibroImpactSystem
-from .generator import (assemble, assemble_tensor, element_for, mesh_domain,
-                       quadrature_order, tensor_index)
+from .discretisation import Discretisation, build
+from .generator import assemble, assemble_tensor
 from .mesh import Domain, default_y_max, domain, load_mesh, structured_mesh
-from .options import DEFAULT_NX, POSITIVITY, TENSOR_ONLY, Options, load_strip_mesh
+from .options import DEFAULT_NX, POSITIVITY, Options
 from .solution import FEMSolution
-from .solve import SOLVERS, solve_stationary
+from .solve import SOLVERS
 
-__all__ = ["stationary", "Options", "FEMSolution", "assemble", "assemble_tensor", "domain",
-           "DEFAULT_NX", "POSITIVITY",
-           "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS"]
-
-
-def default_mesh(system: VibroImpactSystem, opts: Options):
-    """(domain, mesh, x-nodes, y-nodes) of the structured mesh of ``opts``.
-
-    ``nx`` defaults to :data:`DEFAULT_NX`; ``ny`` to the even number giving cells
-    with h_y ≈ 1.5 h_x, at most 4 nx (a narrow strip, e.g. Δ = 0.05, would
-    otherwise get ~10⁶ cells in y for nothing).
-    """
-    dom, nx, ny = opts.grid(system)
-    m, xs, ys = structured_mesh(dom, nx, ny, kind=opts.element, grading=float(opts.grading))
-    return dom, m, xs, ys
+__all__ = ["stationary", "transient", "Options", "Discretisation", "build", "FEMSolution",
+           "assemble", "assemble_tensor", "domain", "DEFAULT_NX", "POSITIVITY",
+           "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS",
+           "relaxation_time"]
 
 
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
@@ -134,56 +118,7 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     Every option is declared once in :class:`fpk_vibro.fem.Options`.
     """
     opts, _ = Options.prepare(system, "stationary", locals())
-    degree, solver, positivity = opts.degree, opts.solver, opts.positivity
-    t0 = time.perf_counter()
-    tensor = None
-    if opts.mesh is None:
-        dom, m, xs, ys = default_mesh(system, opts)
-        if opts.element == "quad" and opts.assembly != "general":
-            tensor = (xs, ys)
-    else:
-        m = load_strip_mesh(system, opts.mesh, "fem.stationary")
-        dom = mesh_domain(system, m)
-    if tensor is not None:
-        op = assemble_tensor(system, tensor[0], tensor[1], degree, dom)
-        L, unit, Mmat = op.L, op.unit, op.M
-        ranks = tuple(np.argsort(np.argsort(b.doflocs[0])) for b in (op.xbasis, op.ybasis))
-    else:
-        basis = skfem.CellBasis(m, element_for(m, degree), intorder=quadrature_order(degree))
-        L, Mmat = assemble(system, basis)
-        unit = np.asarray(Mmat.sum(axis=0)).ravel()
-        ranks = None
-    t_asm = time.perf_counter() - t0
-    afc_info = {}
-    if positivity in TENSOR_ONLY:
-        from .positivity import stationary_positive
-        p, sinfo, afc_info = stationary_positive(
-            system, tensor[0], tensor[1], dom.walls, limit=positivity != "first-order",
-            scheme="van-albada" if positivity == "van-albada" else "quick")
-    elif positivity:
-        from .afc import stationary_afc
-        p, sinfo, afc_info = stationary_afc(L, Mmat, unit, solver=solver, grid=ranks,
-                                            limit=positivity != "upwind")
-    else:
-        p, sinfo = solve_stationary(L, unit, solver=solver, grid=ranks)
-    mass = float(unit @ p)
-    if tensor is not None:
-        if degree == 1:          # MeshQuad.init_tensor numbers vertices x-major: Kronecker order
-            dofs = p
-        else:                    # a one-point basis is enough to read the DOF locations
-            dofs = p[tensor_index(op.xbasis, op.ybasis,
-                                  skfem.CellBasis(m, element_for(m, degree), intorder=1))]
-    else:
-        dofs = p
-    info = {"assembly_seconds": t_asm, "solve_seconds": sinfo.seconds,
-            "solver": sinfo.solver, "iterations": sinfo.iterations,
-            "ordering": sinfo.extra.get("ordering", ""), "ndofs": int(p.size),
-            "assembly": "tensor" if tensor is not None else "general",
-            "positivity": positivity, "y_max": dom.y_max, **afc_info}
-    return FEMSolution(system, m, degree, dofs, residual=sinfo.residual, info=info,
-                       tensor=tensor, mass=mass)
+    return build(system, opts).stationary(opts.solver)
 
 
-from .transient import relaxation_time, transient  # noqa: E402  (uses default_mesh)
-
-__all__ += ["transient", "relaxation_time"]
+from .transient import relaxation_time, transient  # noqa: E402

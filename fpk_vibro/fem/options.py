@@ -49,7 +49,7 @@ def _positivity(name: str, value: Any, where: str | None) -> Any:
 
 
 def _discretisation(name: str, value: Any, where: str | None) -> Any:
-    from .transient import Discretisation
+    from .discretisation import Discretisation
     if not isinstance(value, Discretisation):
         raise invalid(where, name, "a Discretisation from fem.transient.discretise", value)
     return value

@@ -146,7 +146,6 @@ def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {SOLVERS}; got {solver!r}")
     A, b, pin = pinned_system(L, unit, pin)
-    n = A.shape[0]
     if solver == "auto":
         solver = "direct"
     t0 = time.perf_counter()

@@ -32,51 +32,20 @@ import time
 from typing import Any, Sequence
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-import skfem
 
 from .. import scales
 from .._checks import check_float
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..solution import Solution
-from .generator import assemble, assemble_tensor, element_for, quadrature_order, tensor_index
-from .options import load_strip_mesh
+from .discretisation import Discretisation, build
 from .solution import FEMSolution
 
 __all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
 
 #: Local L1 error per step of the adaptive default (``dt`` and ``tol`` not given).
 DEFAULT_TOL = 1e-5
-
-
-class Discretisation:
-    """Mesh, generator L, mass M and the map from the solver's vector to mesh DOFs."""
-
-    def __init__(self, system: VibroImpactSystem, mesh: skfem.Mesh, degree: int,
-                 L: sp.csr_matrix, M: sp.csr_matrix, unit: np.ndarray, order: np.ndarray | None,
-                 tensor: tuple[np.ndarray, np.ndarray] | None, points: np.ndarray,
-                 positivity: bool | str = False, walls: Any = None) -> None:
-        self.system, self.mesh, self.degree = system, mesh, degree
-        self.L, self.M, self.unit = L, M, unit
-        self.order, self.tensor, self.points = order, tensor, points
-        #: False, or the positive generator's variant (L, M are then A, diag(m))
-        self.positivity, self.walls = positivity, walls
-
-    def limited_generator(self, p: np.ndarray) -> sp.csr_matrix:
-        """A(g(p)): the positive generator with the high-order flux factors of p
-        (module docstring; only for ``positivity`` other than "first-order")."""
-        from .positivity import limiter_factors, positive_generator
-        xs, ys = self.tensor
-        scheme = "van-albada" if self.positivity == "van-albada" else "quick"
-        gx, gy = limiter_factors(p.reshape(xs.size, ys.size), xs, ys, self.system, scheme)
-        return positive_generator(self.system, xs, ys, self.walls, gx, gy)[0]
-
-    def solution(self, p: np.ndarray, **info: Any) -> FEMSolution:
-        dofs = p if self.order is None else p[self.order]
-        return FEMSolution(self.system, self.mesh, self.degree, dofs, residual=0.0,
-                           info=info, tensor=self.tensor, mass=float(self.unit @ p))
 
 
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
@@ -88,35 +57,6 @@ def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     lumped masses instead.  Options as in :class:`fpk_vibro.fem.Options`."""
     from .options import Options
     return build(system, Options.prepare(system, "transient", locals())[0])
-
-
-def build(system: VibroImpactSystem, opts: Any) -> Discretisation:
-    """The :class:`Discretisation` of validated options ``opts``."""
-    from . import default_mesh
-    positivity, degree = opts.positivity, opts.degree
-    if opts.mesh is None:
-        dom, m, xs, ys = default_mesh(system, opts)
-        if positivity:
-            from .positivity import positive_generator
-            A, unit = positive_generator(system, xs, ys, dom.walls)
-            pts = np.stack(np.meshgrid(xs, ys, indexing="ij")).reshape(2, -1)
-            return Discretisation(system, m, 1, A.tocsr(), sp.diags(unit).tocsr(), unit,
-                                  None, (xs, ys), pts, positivity, dom.walls)
-        if opts.element == "quad":
-            op = assemble_tensor(system, xs, ys, degree, dom)
-            order = None
-            if degree == 2:
-                order = tensor_index(op.xbasis, op.ybasis,
-                                     skfem.CellBasis(m, element_for(m, degree), intorder=1))
-            pts = np.stack(np.meshgrid(op.xbasis.doflocs[0], op.ybasis.doflocs[0],
-                                       indexing="ij")).reshape(2, -1)
-            return Discretisation(system, m, degree, op.L, op.M, op.unit, order, (xs, ys), pts)
-    else:
-        m = load_strip_mesh(system, opts.mesh, "fem.transient")
-    basis = skfem.CellBasis(m, element_for(m, degree), intorder=quadrature_order(degree))
-    L, M = assemble(system, basis)
-    return Discretisation(system, m, degree, L, M, np.asarray(M.sum(axis=0)).ravel(), None,
-                          None, basis.doflocs)
 
 
 def _initial_vector(disc: Discretisation, initial: Any) -> np.ndarray:
