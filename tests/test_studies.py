@@ -21,9 +21,11 @@ def test_convergence_table(convergence):
     doc, out = convergence
     assert (out / "work_precision.png").stat().st_size > 10_000
     rows = doc["rows"]
-    q1 = [r["error"] for r in rows if r["method"] == "fem" and r["degree"] == 1]
+    q1 = [r["error"] for r in rows if r["method"] == "fem (Galerkin)" and r["degree"] == 1]
     assert all(a > 3 * b for a, b in zip(q1, q1[1:]))                 # order ~2
-    q2 = [r for r in rows if r["method"] == "fem" and r["degree"] == 2]
+    pos = [r for r in rows if r["method"] == "fem (positive)"]
+    assert len(pos) == len(q1) and all(r["min_density"] >= 0 for r in pos)
+    q2 = [r for r in rows if r["method"] == "fem (Galerkin)" and r["degree"] == 2]
     assert q2[0]["error"] < q1[0]                               # Q2 beats Q1 at equal DOFs
     for r in rows:
         if r["method"] == "montecarlo":
@@ -32,7 +34,8 @@ def test_convergence_table(convergence):
     assert 0.02 < avg[-1] < 0.06                                          # model error, r = 0.92
     quad = [r["error"] for r in rows if r["method"] == "averaging (quadrature)"]
     assert quad[-1] < 1e-12 < quad[0]
-    assert doc["cost"]["fem"]["0.001"] is not None
+    assert doc["cost"]["fem (Galerkin)"]["0.001"] is not None
+    assert {r["method"] for r in rows} >= {"fem (default)", "fem (Galerkin)", "fem (positive)"}
 
 
 def test_averaging_study(tmp_path):
