@@ -187,7 +187,7 @@ def _signed_moments(sol):
 def test_coarse_mesh_flagged_and_even_moments_non_negative():
     """nx = 4, ny = 2: Galerkin's E[y⁴] is −0.106; the moments of max(p_h, 0) are
     returned (E[y⁴] = 0.695) and the mesh is flagged (negative mass 0.095)."""
-    sol = fem.stationary(P(r=0.92), nx=4, ny=2)
+    sol = fem.stationary(P(r=0.92), nx=4, ny=2, positivity=False)
     assert sol.info["under_resolved"] is True             # in info without moments()
     assert "negative mass" in sol.info["under_resolved_reason"]
     assert sol.info["moments_of"] == "max(p_h, 0)"
@@ -212,7 +212,7 @@ def test_flagged_mesh_keeps_galerkin_moments_while_they_are_possible():
     """r = 0, nx = 48: flagged (Galerkin undershoot next to (±Δ, 0)), but its moments
     are all possible and closer to Monte Carlo than those of max(p_h, 0) (E[x²]:
     0.09870 vs 0.09926, MC 0.09842 ± 0.00017), so they are the ones returned."""
-    sol = fem.stationary(P(r=0.0, D2=0.0), nx=48, ny=96)
+    sol = fem.stationary(P(r=0.0, D2=0.0), nx=48, ny=96, positivity=False)
     assert sol.info["under_resolved"] is True and sol.info["moments_of"] == "p_h"
     m, g = sol.moments(), _signed_moments(sol)
     for k in EVEN:
@@ -224,7 +224,7 @@ def test_galerkin_undershoot_flagged_positive_scheme_not():
     """r = 0: Galerkin's undershoot next to (±Δ, 0) (negative mass 2.4e-3 at nx = 48)
     is flagged; the positive discretisation of the same mesh is not."""
     system = P(r=0.0, D2=0.0)
-    assert fem.stationary(system, nx=48, ny=96).info["under_resolved"] is True
+    assert fem.stationary(system, nx=48, ny=96, positivity=False).info["under_resolved"] is True
     pos = fem.stationary(system, nx=48, ny=96, positivity=True)
     assert pos.info["under_resolved"] is False and pos.info["negative_mass"] == 0.0
 

@@ -37,9 +37,32 @@ def _assert_generator(A):
 
 def test_plain_galerkin_goes_negative_on_hard_case():
     """The problem positivity addresses really is there (DESIGN §3 trial fact)."""
-    sol = stationary(HARD[2], nx=64)
+    sol = stationary(HARD[2], nx=64, positivity=False)
     assert sol.min_density < -0.01 * sol.dofs.max()
     assert abs(sol.mass - 1) < 1e-12
+    assert sol.info["discretisation"] == "galerkin"
+
+
+def test_auto_switches_only_when_galerkin_goes_negative():
+    """positivity="auto" (the default): the hard case switches to the positive
+    generator (nx given: the same nx, ny = 2 nx) and says why; the exact case keeps
+    Galerkin (bit-identical to positivity=False); degree 2 cannot switch and says so."""
+    sol = stationary(HARD[2], nx=16)
+    assert sol.info["discretisation"] == "positive" and sol.info["positivity"] == "auto"
+    assert "switched" in sol.info["discretisation_reason"]
+    assert sol.info["galerkin_min_ratio"] < -0.01
+    assert sol.min_density >= 0 and abs(sol.mass - 1) < 1e-12
+    ref = stationary(HARD[2], nx=16, ny=32, positivity="quick")
+    assert np.array_equal(sol.dofs, ref.dofs)
+    gal = stationary(EXACT, nx=16)
+    assert gal.info["discretisation"] == "galerkin"
+    assert "auto: Galerkin min p" in gal.info["discretisation_reason"]
+    assert np.array_equal(gal.dofs, stationary(EXACT, nx=16, positivity=False).dofs)
+    q2 = stationary(HARD[2], nx=8, degree=2)
+    assert q2.info["discretisation"] == "galerkin"
+    assert "Galerkin kept (negative)" in q2.info["discretisation_reason"]
+    assert "requested" in stationary(EXACT, nx=8, positivity=True).info[
+        "discretisation_reason"]
 
 
 @pytest.mark.parametrize("r", [0.0, 0.1, 0.3, 0.92, 1.0])
@@ -108,7 +131,8 @@ def test_limited_is_nonnegative_and_converges(system):
     EH = _check_levels(system, levels)
     # the same moment as (negative-going) Galerkin on the finest grid, within 5 %
     # (measured 0.3 % for the hard cases, 0.1 % for Δ = 0.1, 3.3 % for Δ = 3 at nx = 32)
-    galerkin = stationary(system, nx=levels[-1][0], ny=levels[-1][1]).moments()["E_H"]
+    galerkin = stationary(system, nx=levels[-1][0], ny=levels[-1][1],
+                          positivity=False).moments()["E_H"]
     assert abs(EH[-1] - galerkin) < 0.05 * galerkin, (EH, galerkin)
 
 

@@ -187,3 +187,10 @@ def test_positive_transient_long_time_limit(paper92, positive_coarse):
 def test_positive_transient_bad_input(paper92, kw, match):
     with pytest.raises(ValueError, match=match):
         transient(paper92, initial=SMOOTH, times=[1.0], nx=8, **kw)
+
+
+def test_auto_positivity_in_a_transient_is_galerkin(paper92, coarse):
+    a = transient(paper92, initial=SMOOTH, times=[1.0], dt=0.1, nx=24, ny=48, positivity="auto")[0]
+    b = transient(paper92, initial=SMOOTH, times=[1.0], dt=0.1, discretisation=coarse)[0]
+    assert a.info["scheme"] == b.info["scheme"] == "bdf2"
+    assert np.array_equal(a.dofs, b.dofs)

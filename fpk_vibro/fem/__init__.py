@@ -56,7 +56,7 @@ __all__ = ["stationary", "transient", "Options", "Discretisation", "build", "FEM
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                solver: str = "auto", element: str = "quad", grading: float = 0.0,
-               positivity: bool | str = False, assembly: str = "auto") -> FEMSolution:
+               positivity: bool | str = "auto", assembly: str = "auto") -> FEMSolution:
     """Stationary density of the 2-D FPK with impact coupling (DESIGN §3).
 
     Solves L p = 0, ∫ p = 1 where L is the conservative Galerkin generator
@@ -82,7 +82,7 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         Structured quadrilaterals or triangles (ignored with ``mesh``).
     grading : float
         ≥ 0: cluster the y-nodes towards y = 0 (sinh map).
-    positivity : bool or {"quick", "van-albada", "first-order", "upwind", "afc"}
+    positivity : bool or {"auto", "quick", "van-albada", "first-order", "upwind", "afc"}
         :mod:`fpk_vibro.fem.positivity` (the first three) and
         :mod:`fpk_vibro.fem.afc`, degree 1 only (nodal Q1 density).
         ``True``/``"quick"``: the positive tensor-grid generator (Scharfetter–
@@ -98,8 +98,13 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         algebraic discrete upwinding of the Galerkin matrix (any mesh; ≥ 0 but
         strongly diffusive).  ``"afc"``: upwinding plus Kuzmin's flux correction
         by defect correction (does not converge on the hard cases; a
-        RuntimeWarning says so).  Default False: plain Galerkin (order 2 on
-        smooth cases, negative next to (±Δ, 0) on hard cases).
+        RuntimeWarning says so).  ``False``: plain Galerkin (order 2 on smooth
+        cases, negative next to (±Δ, 0) on hard cases).  Default ``"auto"``:
+        Galerkin, replaced by ``"quick"`` on nx = 64 (or the given nx) × 2 nx
+        cells when the Galerkin density has min p < −1e-6·max p (degree 1,
+        structured quads; otherwise Galerkin is kept and the reason says so).
+        ``sol.info["discretisation"]`` names what ran and
+        ``sol.info["discretisation_reason"]`` why.
     assembly : {"auto", "tensor", "general"}
         Kronecker-product assembly (structured quads) or general skfem assembly.
 

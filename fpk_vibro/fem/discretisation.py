@@ -14,6 +14,14 @@ discretisation it is:
   correction at solve time (:mod:`fpk_vibro.fem.afc`; ``positivity`` "upwind",
   "afc"; stationary only).
 
+``positivity="auto"`` (the stationary default) builds the Galerkin discretisation;
+:meth:`Discretisation.stationary` accepts its density when min p ≥
+−:data:`~fpk_vibro.fem.options.AUTO_NEGATIVE_TOL`·max p and otherwise (degree 1,
+structured quads, tensor assembly) solves again with the positive "quick"
+generator on nx = :data:`~fpk_vibro.fem.options.AUTO_POSITIVE_NX` (or the given
+nx) × 2 nx cells.  ``sol.info["discretisation"]`` names what ran and
+``sol.info["discretisation_reason"]`` why.  In a transient "auto" is Galerkin.
+
 :meth:`Discretisation.stationary` solves for the stationary density and
 :func:`fpk_vibro.fem.transient.transient` marches ``M dp/dt = L p`` on the same
 object, so the choice of mesh, assembly and positivity is made here only.
@@ -28,10 +36,16 @@ import scipy.sparse as sp
 import skfem
 
 from ..model import VibroImpactSystem
-from .generator import (assemble, assemble_tensor, element_for, mesh_domain,
-                        quadrature_order, tensor_index)
+from .generator import (
+    assemble,
+    assemble_tensor,
+    element_for,
+    mesh_domain,
+    quadrature_order,
+    tensor_index,
+)
 from .mesh import structured_mesh
-from .options import TENSOR_ONLY, load_strip_mesh
+from .options import AUTO_NEGATIVE_TOL, AUTO_POSITIVE_NX, TENSOR_ONLY, load_strip_mesh
 from .solution import FEMSolution
 from .solve import solve_stationary
 
@@ -70,6 +84,9 @@ class Discretisation:
         self.order, self.tensor, self.points = order, tensor, points
         self.positivity, self.walls = positivity, walls
         self.ranks, self.y_max, self.assembly, self.seconds = ranks, y_max, assembly, seconds
+        #: the options of a positivity="auto" build (None otherwise): stationary()
+        #: may switch to the positive generator with them
+        self.auto: Any = None
 
     @property
     def kind(self) -> str:
@@ -113,10 +130,43 @@ class Discretisation:
                 "solver": sinfo.solver, "iterations": sinfo.iterations,
                 "ordering": sinfo.extra.get("ordering", ""), "ndofs": int(p.size),
                 "assembly": self.assembly, "discretisation": self.kind,
+                "discretisation_reason": f"requested (positivity={self.positivity!r})",
                 "positivity": self.positivity, "y_max": self.y_max, **extra}
         sol = self.solution(p, **info)
         sol.residual = sinfo.residual
+        if self.auto is not None:
+            return self._auto(sol, solver)
         return sol
+
+    def _auto(self, sol: FEMSolution, solver: str) -> FEMSolution:
+        """positivity="auto": keep the Galerkin ``sol`` or switch (module docstring)."""
+        opts = self.auto
+        ratio = float(sol.dofs.min() / sol.dofs.max())
+        sol.info["positivity"] = "auto"
+        if ratio >= -AUTO_NEGATIVE_TOL:
+            sol.info["discretisation_reason"] = (
+                f"auto: Galerkin min p = {ratio:.1e}·max p >= -{AUTO_NEGATIVE_TOL:g}·max p")
+            return sol
+        switchable = (self.degree == 1 and opts.mesh is None and opts.element == "quad"
+                      and self.assembly == "tensor")
+        if not switchable:
+            sol.info["discretisation_reason"] = (
+                f"auto: Galerkin min p = {ratio:.1e}·max p < -{AUTO_NEGATIVE_TOL:g}·max p, "
+                "but the positive generator needs degree 1 on the structured quad mesh "
+                "with tensor assembly: Galerkin kept (negative)")
+            return sol
+        nx = AUTO_POSITIVE_NX if opts.nx is None else opts.nx
+        ny = 2 * nx if opts.ny is None else opts.ny
+        pos = build(self.system, opts.replace(positivity="quick", nx=nx, ny=ny))
+        out = pos.stationary(solver)
+        out.info.update(
+            positivity="auto", galerkin_min_ratio=ratio,
+            galerkin_seconds=self.seconds + sol.info["solve_seconds"],
+            discretisation_reason=(
+                f"auto: Galerkin ({sol.info['ndofs']} DOFs) went negative, min p = "
+                f"{ratio:.1e}·max p < -{AUTO_NEGATIVE_TOL:g}·max p: switched to the "
+                f"positive generator (QUICK, {nx} × {ny} cells)"))
+        return out
 
 
 def default_mesh(system: VibroImpactSystem, opts: Any):
@@ -133,6 +183,10 @@ def default_mesh(system: VibroImpactSystem, opts: Any):
 
 def build(system: VibroImpactSystem, opts: Any) -> Discretisation:
     """The :class:`Discretisation` of validated options ``opts`` (module docstring)."""
+    if opts.positivity == "auto":        # Galerkin; stationary() may switch
+        disc = build(system, opts.replace(positivity=False))
+        disc.auto = opts
+        return disc
     t0 = time.perf_counter()
     positivity, degree = opts.positivity, opts.degree
     if opts.mesh is None:

@@ -17,19 +17,36 @@ from .._checks import InputError, invalid
 from ..budget import Cost
 from ..model import VibroImpactSystem
 from ..options import Options as _Options
-from ..options import option
+from ..options import PerMode, option
 
-__all__ = ["Options", "SOLVERS", "POSITIVITY", "SCHEMES", "DEFAULT_NX", "load_strip_mesh"]
+__all__ = [
+    "AUTO_NEGATIVE_TOL",
+    "AUTO_POSITIVE_NX",
+    "DEFAULT_NX",
+    "POSITIVITY",
+    "SCHEMES",
+    "SOLVERS",
+    "Options",
+    "load_strip_mesh",
+]
 
 S, T = ("stationary",), ("transient",)
 SOLVERS = ("auto", "direct", "amg", "amg-sa")
 #: positivity values: the tensor-grid generator's (stationary and transient), then
-#: the algebraic ones (stationary, any mesh).
-POSITIVITY = (False, True, "quick", "van-albada", "first-order", "upwind", "afc")
+#: the algebraic ones (stationary, any mesh).  "auto" (the stationary default):
+#: Galerkin, replaced by the positive "quick" generator when its density goes
+#: below −AUTO_NEGATIVE_TOL·max p (fem.discretisation); in a transient "auto" is
+#: Galerkin (False).
+POSITIVITY = (False, True, "auto", "quick", "van-albada", "first-order", "upwind", "afc")
 TENSOR_ONLY = (True, "quick", "van-albada", "first-order")
 SCHEMES = ("bdf2", "theta", "euler")
 #: Default number of cells across the strip in x, per degree.
 DEFAULT_NX = {1: 128, 2: 48}
+#: positivity="auto": the Galerkin density is accepted when min p ≥ −tol·max p.
+AUTO_NEGATIVE_TOL = 1e-6
+#: positivity="auto": cells across x of the positive generator it switches to when
+#: nx is not given (ny = 2 nx); chosen for about 1–2 s per solve.
+AUTO_POSITIVE_NX = 64
 
 
 def _mesh(name: str, value: Any, where: str | None) -> Any:
@@ -82,12 +99,17 @@ class Options(_Options):
                           choices=("quad", "tri"))
     grading: float = option(0.0, "clustering of the y-nodes towards y = 0 (sinh map)",
                             "float", lo=0.0, hi=20.0)
-    positivity: bool | str = option(False, "non-negative discretisation (degree 1): the "
-                                    "positive tensor-grid generator, or algebraic upwinding "
-                                    "/ AFC (stationary, any mesh)", "custom",
-                                    check=_positivity,
-                                    allowed="false, true, \"quick\", \"van-albada\", "
-                                            "\"first-order\", \"upwind\" or \"afc\"")
+    positivity: bool | str = option(PerMode("auto", False),
+                                    "non-negative discretisation (degree 1): the positive "
+                                    "tensor-grid generator, or algebraic upwinding / AFC "
+                                    "(stationary, any mesh); \"auto\": Galerkin, switched "
+                                    "to the positive generator (\"quick\", nx = 64 unless "
+                                    "given) when its min p < -1e-6 max p (degree 1, "
+                                    "structured quads; in a transient \"auto\" is Galerkin)",
+                                    "custom", check=_positivity,
+                                    allowed="false, true, \"auto\", \"quick\", "
+                                            "\"van-albada\", \"first-order\", \"upwind\" "
+                                            "or \"afc\"")
     assembly: str = option("auto", "Kronecker-product or general skfem assembly", "choice",
                            choices=("auto", "tensor", "general"), modes=S)
     dt: float | None = option(None, "time step (the largest, with adaptive steps)", "float",
@@ -112,6 +134,8 @@ class Options(_Options):
         """Every rule joining the options to each other and to ``system``."""
         where = f"fem.{mode}"
         pos, mesh = self.positivity, self.mesh
+        if pos == "auto":       # Galerkin, possibly switched: no rule of its own
+            pos = False
 
         def bad(name: str, msg: str) -> InputError:
             return InputError(f"{where}: {name} {msg}", where=where, name=name)
@@ -226,17 +250,24 @@ class Options(_Options):
         if mode == "stationary":
             iterations = {"quick": 20, True: 20, "van-albada": 20, "afc": 10}.get(
                 self.positivity, 1)
-            return Cost(80e6 + lu, n, "DOFs", 0.2 + iterations * factor_s, key)
+            seconds = 0.2 + iterations * factor_s
+            if self.positivity == "auto" and self.degree == 1 and self.mesh is None \
+                    and self.element == "quad" and self.assembly != "general":
+                nxp = AUTO_POSITIVE_NX if self.nx is None else self.nx
+                nyp = 2 * nxp if self.ny is None else self.ny
+                seconds += 20 * 3.4e-7 * float((nxp + 1) * (nyp + 1)) ** 1.3
+            return Cost(80e6 + lu, n, "DOFs", seconds, key)
         from ..scales import period
         t_end = float(max(times)) if times is not None and len(times) else 0.0
         dt = self.dt if self.dt is not None else period(system) / 20.0
-        adaptive = self.tol is not None or (self.dt is None and not self.positivity
+        pos = False if self.positivity == "auto" else self.positivity   # Galerkin
+        adaptive = self.tol is not None or (self.dt is None and not pos
                                             and (self.scheme in (None, "bdf2")))
         steps = t_end / dt + (len(times) if times is not None else 0)
         if adaptive:
             steps = 1500.0 + 20.0 * t_end / dt
-        per_step = 3e-7 * n * (4.0 if self.positivity not in (False, "first-order") else 1.0)
-        if self.positivity not in (False, "first-order"):
+        per_step = 3e-7 * n * (4.0 if pos not in (False, "first-order") else 1.0)
+        if pos not in (False, "first-order"):
             per_step += factor_s        # a new factorisation each step
         copies = 25.0 if adaptive else 3.0
         key = "times" if t_end / dt > 1e7 else key

@@ -332,6 +332,79 @@ def limiter_factors(p: np.ndarray, xnodes: np.ndarray, ynodes: np.ndarray, syste
     return gx, gy
 
 
+def _gmres_right(B, b: np.ndarray, x0: np.ndarray, prec, m: int) -> np.ndarray:
+    """m steps of right-preconditioned GMRES (B prec(z) = r), modified Gram–Schmidt."""
+    r = b - B @ x0
+    beta = float(np.linalg.norm(r))
+    if beta == 0.0:
+        return x0
+    V = np.empty((m + 1, r.size))
+    Z = np.empty((m, r.size))
+    H = np.zeros((m + 1, m))
+    V[0] = r / beta
+    k = 0
+    for k in range(m):
+        Z[k] = prec(V[k])
+        w = B @ Z[k]
+        for i in range(k + 1):
+            H[i, k] = w @ V[i]
+            w -= H[i, k] * V[i]
+        H[k + 1, k] = np.linalg.norm(w)
+        if H[k + 1, k] <= 1e-14 * beta:
+            break
+        V[k + 1] = w / H[k + 1, k]
+    k += 1
+    e = np.zeros(k + 1)
+    e[0] = beta
+    yk = np.linalg.lstsq(H[:k + 1, :k], e, rcond=None)[0]
+    return x0 + yk @ Z[:k]
+
+
+class _FrozenLU:
+    """The Picard steps' linear solves: GMRES(``inner``) on the pinned system, right-
+    preconditioned with the LU of an earlier step's matrix (the limited generators
+    of successive steps differ little).  The error is then estimated as
+    ‖LU⁻¹(b − B x)‖∞ / ‖x‖∞; above ``err`` the matrix is factorised afresh.
+    Used only up to ``max_n`` unknowns (beyond it GMRES cost more than an LU here;
+    a size rule, not a timer, so that results do not depend on machine load).  The
+    Picard iterate is not required to be ≥ 0; the returned density is (the caller
+    ends with an exact solve)."""
+
+    def __init__(self, unit: np.ndarray, grid, pin: int, inner: int = 10,
+                 max_n: int = 12000) -> None:
+        from .solve import grid_nested_dissection
+        self.unit, self.pin, self.inner = unit, pin, inner
+        self.perm = grid_nested_dissection(*grid)
+        self.lu = None
+        self.factorizations = 0
+        self.frozen = unit.size <= max_n
+
+    def _apply(self, v: np.ndarray) -> np.ndarray:
+        out = np.empty_like(v)
+        out[self.perm] = self.lu.solve(v[self.perm])
+        return out
+
+    def _factor(self, B: sp.csr_matrix) -> None:
+        import scipy.sparse.linalg as spla
+        self.lu = spla.splu(B[self.perm][:, self.perm].tocsc(), permc_spec="NATURAL",
+                            diag_pivot_thresh=0.01, options={"SymmetricMode": True})
+        self.factorizations += 1
+
+    def solve(self, A: sp.spmatrix, x0: np.ndarray, err: float) -> np.ndarray:
+        """The null vector of A (pinned at ``pin``) to estimated relative error
+        ``err``, normalised to unit mass."""
+        from .solve import pinned_system
+        B, b, _ = pinned_system(A, self.unit, self.pin)
+        done = False
+        if self.lu is not None and self.frozen and x0[self.pin] > 0:
+            x = _gmres_right(B, b, x0 / x0[self.pin], self._apply, self.inner)
+            done = np.max(np.abs(self._apply(b - B @ x))) <= err * np.max(np.abs(x))
+        if not done:
+            self._factor(B)
+            x = self._apply(b)
+        return x / float(self.unit @ x)
+
+
 def stationary_positive(system, xnodes: np.ndarray, ynodes: np.ndarray, walls, *,
                         limit: bool = True, scheme: str = "quick", tol: float = 1e-9,
                         maxiter: int = 300, anderson: int = 3
@@ -394,15 +467,19 @@ def stationary_positive(system, xnodes: np.ndarray, ynodes: np.ndarray, walls, *
         change = np.inf
         X, F = [], []                   # Anderson history: iterates, residuals
         x = p
+        inner = _FrozenLU(unit, grid, int(np.argmax(p)))
         for it in range(1, maxiter + 1):
             gx, gy = limiter_factors(x.reshape(shape), xn, yn, system, scheme)
             A, _ = positive_generator(system, xn, yn, walls, gx, gy)
-            pn, sinfo = solve_stationary(A, unit, grid=grid, pin=int(np.argmax(x)))
+            pn = inner.solve(A, x, max(min(1e-4, 1e-2 * change), 1e-3 * tol))
             f = pn - x
             change = float(np.max(np.abs(f)) / np.max(np.abs(pn)))
-            p = pn                      # a generator's normalised null vector: p ≥ 0
             if change < tol:
+                # the returned p is the exact null vector of A(g(x)): a generator's
+                # normalised null vector, p ≥ 0 (the inner solves were inexact)
+                p, sinfo = solve_stationary(A, unit, grid=grid, pin=int(np.argmax(x)))
                 break
+            p = pn
             if anderson:
                 X.append(x)
                 F.append(f)
@@ -416,8 +493,9 @@ def stationary_positive(system, xnodes: np.ndarray, ynodes: np.ndarray, walls, *
                     x = pn
             else:
                 x = pn
-        nlu = it + 1
+        nlu = inner.factorizations + 2
         if change >= tol:
+            p, sinfo = solve_stationary(A, unit, grid=grid, pin=int(np.argmax(x)))
             import warnings
             warnings.warn(f"limited positive scheme: Picard iteration did not converge "
                           f"(relative change {change:.1e} after {it} iterations); the "
