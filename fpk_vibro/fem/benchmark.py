@@ -7,6 +7,16 @@ paper a, b, c, D1, Δ), and the ratio of the straightforward baseline (general
 skfem 2-D assembly + SciPy SuperLU with COLAMD, mesh and basis included) to the
 fast path (Kronecker assembly + SuperLU with nested-dissection ordering for Q1,
 MMD for Q2; the "total" column) measured in the same run.
+
+``--amg-sizes N …`` instead prints AMG (pyamg AIR-preconditioned GMRES, the
+:func:`fpk_vibro.fem.solve.factorised` / ``solve_stationary`` AMG path) against
+SuperLU (grid nested dissection) at about N Q1 DOFs each (ny = 4 nx), on the
+matrices where AMG applies: ``step`` = M − dt·A (positive generator A, lumped
+M, dt = T0/20 ≈ 0.3; one implicit-Euler step of the positive transient) and
+``stationary`` = the pinned −A (the ``positivity="first-order"`` stationary
+solve); ``galerkin-step`` = M − dt·L with the Galerkin L (AMG does not converge
+there).  Each solve runs in its own subprocess (address space capped by
+``--amg-mem-gb``, wall time by ``--amg-timeout``) and reports its peak RSS.
 """
 from __future__ import annotations
 
@@ -21,7 +31,7 @@ from skfem import Functional, asm
 from ..model import VibroImpactSystem
 from . import stationary
 
-__all__ = ["main", "exact_errors", "EXACT_SYSTEM"]
+__all__ = ["EXACT_SYSTEM", "exact_errors", "main"]
 
 EXACT_SYSTEM = VibroImpactSystem.paper(r=1.0, D2=0.0)
 
@@ -72,6 +82,93 @@ def baseline(n: int, degree: int) -> tuple[float, np.ndarray]:
     return time.perf_counter() - t0, p
 
 
+def _amg_worker(nx: int, kind: str, method: str) -> None:
+    """One AMG-vs-LU measurement (run in a subprocess by :func:`amg_table`)."""
+    import resource
+
+    import scipy.sparse as sp
+
+    from .. import budget, scales
+    from .solve import SolverNotConverged, factorised, solve_stationary
+    from .transient import discretise
+
+    warnings.simplefilter("ignore", RuntimeWarning)
+    with budget.unlimited():
+        d = discretise(EXACT_SYSTEM, nx=nx, ny=4 * nx,
+                       positivity=False if kind == "galerkin-step" else "first-order")
+    L, M, unit = d.L.tocsr(), d.M.tocsr(), d.unit
+    n = L.shape[0]
+    grid = d.ranks if kind == "galerkin-step" else (np.arange(nx + 1), np.arange(4 * nx + 1))
+    solver = "direct" if method == "superlu" else "amg"
+    dt = scales.period(EXACT_SYSTEM) / 20.0
+    t0 = time.perf_counter()
+    setup, its, res, status = 0.0, 0, float("nan"), "ok"
+    try:
+        if kind == "stationary":
+            _p, info = solve_stationary(L, unit, solver=solver, grid=grid)
+            its, res = info.iterations, info.residual
+            setup = float("nan")
+        else:
+            K = sp.csr_matrix(M - dt * L)
+            b = M @ np.full(n, 1.0 / unit.sum())
+            f = factorised(K, solver=solver, grid=grid)
+            setup = f.info["setup_seconds"]
+            x = f(b)
+            its = f.info.get("iterations", 0)
+            res = float(np.linalg.norm(K @ x - b) / np.linalg.norm(b))
+    except SolverNotConverged as exc:
+        status, its, res = "not converged", exc.iterations, exc.residual
+    total = time.perf_counter() - t0
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    print(f"RESULT {n} {setup:.2f} {total:.2f} {its} {res:.2e} {rss:.2f} {status}", flush=True)
+
+
+def amg_table(sizes, kinds=("step", "stationary"), *, mem_gb: float = 15.0,
+              timeout: float = 600.0) -> None:
+    """Print AMG against SuperLU at about ``sizes`` DOFs (module docstring)."""
+    import resource
+    import subprocess
+
+    head = (f"{'matrix':>13} {'DOFs':>9} {'solver':>8} {'setup s':>8} {'total s':>8} "
+            f"{'its':>4} {'rel.res':>8} {'peak GB':>8}  status")
+    print(f"AMG (AIR + GMRES, tol 1e-10) vs SuperLU (grid ND); exact case, ny = 4 nx; "
+          f"limits {mem_gb:g} GB address space, {timeout:g} s")
+    print(head)
+    print("-" * len(head))
+    for kind in kinds:
+        for N in sizes:
+            nx = max(4, round((np.sqrt(1 + 16 * (N - 1)) - 5) / 8))  # (nx+1)(4nx+1) ≈ N
+            for method in ("superlu", "amg"):
+                cmd = [sys.executable, "-m", "fpk_vibro.fem.benchmark", "--amg-worker",
+                       str(nx), kind, method]
+                lim = int(mem_gb * 2**30)
+
+                def cap(lim=lim):
+                    resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
+                t0 = time.perf_counter()
+                try:
+                    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
+                                       check=False, preexec_fn=cap)
+                    line = [x for x in r.stdout.splitlines() if x.startswith("RESULT")]
+                    if line:
+                        _, n, setup, tot, its, res, rss, *st = line[0].split()
+                        setup = "-" if kind == "stationary" else f"{float(setup):.1f}"
+                        print(f"{kind:>13} {int(n):>9} {method:>8} {setup:>8} "
+                              f"{float(tot):8.1f} {int(its):>4} {float(res):8.1e} "
+                              f"{float(rss):8.2f}  {' '.join(st)}", flush=True)
+                    else:
+                        err = (r.stderr.strip().splitlines() or ["?"])[-1][:60]
+                        why = "out of memory" if "MemoryError" in r.stderr or r.returncode < 0 \
+                            else err
+                        print(f"{kind:>13} {(nx + 1) * (4 * nx + 1):>9} {method:>8} "
+                              f"{'':>8} {time.perf_counter() - t0:8.1f} {'':>4} {'':>8} "
+                              f"{'>' + format(mem_gb, 'g'):>8}  failed: {why}", flush=True)
+                except subprocess.TimeoutExpired:
+                    print(f"{kind:>13} {(nx + 1) * (4 * nx + 1):>9} {method:>8} {'':>8} "
+                          f"{'>' + format(timeout, 'g'):>8} {'':>4} {'':>8} {'':>8}  "
+                          "timed out (killed)", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the benchmark table; returns 0."""
     ap = argparse.ArgumentParser(prog="python -m fpk_vibro.fem.benchmark",
@@ -85,7 +182,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--amg", action="store_true",
                     help="also try pyamg AIR / smoothed aggregation on the smallest level")
     ap.add_argument("--quick", action="store_true", help="small levels only")
+    ap.add_argument("--amg-sizes", type=float, nargs="+", metavar="N",
+                    help="instead: AMG vs SuperLU at about these DOF counts, e.g. "
+                         "1e4 6.6e4 2.6e5 1e6 4e6 (module docstring)")
+    ap.add_argument("--amg-kinds", nargs="+", default=["step", "stationary"],
+                    choices=["step", "stationary", "galerkin-step"],
+                    help="matrices for --amg-sizes; default %(default)s")
+    ap.add_argument("--amg-mem-gb", type=float, default=15.0,
+                    help="address-space cap per solve (GB); default %(default)s")
+    ap.add_argument("--amg-timeout", type=float, default=600.0,
+                    help="seconds per solve; default %(default)s")
+    ap.add_argument("--amg-worker", nargs=3, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.amg_worker:
+        nx, kind, method = args.amg_worker
+        _amg_worker(int(nx), kind, method)
+        return 0
+    if args.amg_sizes:
+        amg_table([int(n) for n in args.amg_sizes], args.amg_kinds,
+                  mem_gb=args.amg_mem_gb, timeout=args.amg_timeout)
+        return 0
     if args.quick:
         args.q1, args.q2, args.baseline_max = [16, 32, 64], [8, 16, 32], 20_000
     head = (f"{'deg':>3} {'nx':>4} {'DOFs':>9} {'solver':>10} {'asm s':>7} {'solve s':>8} "

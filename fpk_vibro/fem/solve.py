@@ -13,11 +13,39 @@ bordered system, and COLAMD ordering ~10× better than MMD_AT_PLUS_A.
 
 Solvers
 -------
-``"direct"``  SuperLU (``scipy.sparse.linalg.splu``, COLAMD) on A.
-``"amg"``     GMRES on A preconditioned by a pyamg hierarchy (AIR by default,
-              ``amg="sa"`` for smoothed aggregation).
-``"auto"``    the direct solver (with the grid ordering below when the caller
-              passes the tensor structure); AMG only on request.
+``"direct"``  SuperLU (``scipy.sparse.linalg.splu``) on A, orderings below.
+``"amg"``     GMRES on the pinned −L preconditioned by a pyamg AIR hierarchy
+              (``"amg-sa"``: smoothed aggregation).  An unconverged solve raises
+              :class:`SolverNotConverged` (a RuntimeError naming the solver);
+              no density is ever returned from it.
+``"auto"``    the direct solver: AMG would need the generator sign pattern
+              (off-diagonals ≥ 0, the positive generator) and at least
+              :data:`AMG_MIN_DOFS_STATIONARY` unknowns, which is infinite because
+              AMG does not scale on the pinned system (measured, below).  Were AMG
+              tried and missed its tolerance, SuperLU runs and ``SolveInfo.solver``
+              reads ``"direct (fallback: …)"``, ``extra["fallback"]`` the reason.
+
+:func:`factorised` gives the implicit-step solve x = K⁻¹b for a transient's
+matrix K = a·M − h·L: SuperLU, or AMG when K is an M-matrix (lumped M, positive
+generator) too large for its LU to fit (see its docstring).
+
+Where AMG fits (measured, ``python -m fpk_vibro.fem.benchmark --amg-sizes``, exact
+case, ny = 4 nx, 2 shared cores).  On the Galerkin L (pinned, or M − dt L with
+the consistent mass) AIR, smoothed aggregation and root-node do not converge
+(residual 0.4–80 after 100–200 iterations, or NaN in the SA/root-node setup): the
+Galerkin transport couplings are negative, not an M-matrix.  On the positive
+generator A, AIR + GMRES converges in 7–10 iterations on M − dt A (dt = 0.3 and
+0.03, size-independent).  One solve of M − dt A (dt = 0.3): SuperLU 0.1, 1.1, 20,
+91, 409 s (peak RSS 0.08, 0.16, 0.47, 1.74, 7.2 GB) against AMG 2.8, 12, 29, 79,
+185 s (0.09, 0.14, 0.33, 1.06, 3.9 GB) at 1e4, 6.6e4, 2.6e5, 1e6, 4e6 DOFs; the
+AMG setup is most of it (166 s of 185 s at 4e6; 328 of 396 s in a busier run,
+where SuperLU took 556 s).  At 1.0e7 DOFs AMG solves it in 266 s (11
+iterations, 9.0 GB) while SuperLU fails after 382 s under a 15 GB address-space
+cap ("gstrf was called with invalid arguments").  At 4e6 SuperLU still fits (7.2 GB of 24), so AMG
+is chosen by size only for one-off solves, and for reused step matrices only
+when the LU would not fit (:func:`factorised`).  On the pinned −A (stationary) the
+iterations grow with size and AMG misses 1e-10 at 1e6 DOFs, so the stationary
+"auto" stays direct (:data:`AMG_MIN_DOFS_STATIONARY`).
 
 Two measured facts shape the direct solver.  (i) The normalisation row uᵀ is
 dense; with it SuperLU's fill explodes (a 17k-DOF Q1 system filled 1.5·10⁷
@@ -33,6 +61,7 @@ with the LU factors.
 """
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -41,10 +70,51 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["SolveInfo", "pinned_system", "solve_stationary", "grid_nested_dissection",
-           "relative_residual", "SOLVERS"]
+__all__ = [
+    "AMG_MIN_DOFS",
+    "AMG_MIN_DOFS_STATIONARY",
+    "SOLVERS",
+    "Factorised",
+    "SolveInfo",
+    "SolverNotConverged",
+    "factorised",
+    "grid_nested_dissection",
+    "is_generator_pattern",
+    "is_m_matrix_pattern",
+    "lu_bytes",
+    "pinned_system",
+    "relative_residual",
+    "solve_stationary",
+]
 
 SOLVERS = ("auto", "direct", "amg", "amg-sa")
+
+#: Unknowns from which :func:`factorised` ``"auto"`` may use AMG (only on
+#: M-matrix-pattern matrices): the measured single-solve crossover (module
+#: docstring, ``benchmark --amg-sizes``).
+AMG_MIN_DOFS = 1_000_000
+#: The same for the stationary (pinned) system: never (math.inf).  Measured on the
+#: pinned positive generator: AIR + GMRES iterations grow 14, 20, 46, > 100 at 1e4,
+#: 6.6e4, 2.6e5, 1e6 DOFs (not converged at 1e6: residual 2e-8 after 139 s, while
+#: SuperLU took 66 s and 1.7 GB), so "auto" keeps SuperLU for it at every size.
+AMG_MIN_DOFS_STATIONARY = math.inf
+#: Relative residual ‖Ap − b‖₂/‖b‖₂ the AMG solves must reach (stationary, step).
+AMG_TOL = 1e-10
+AMG_TOL_STEP = 1e-10
+
+
+class SolverNotConverged(RuntimeError):
+    """An iterative solve missed its tolerance; no density is returned.
+
+    Attributes: ``solver``, ``iterations``, ``residual`` (true relative residual),
+    ``tol``."""
+
+    def __init__(self, solver: str, iterations: int, residual: float, tol: float,
+                 detail: str = "") -> None:
+        self.solver, self.iterations, self.residual, self.tol = solver, iterations, residual, tol
+        msg = (f"solver={solver!r} did not converge: relative residual {residual:.1e} > "
+               f"tolerance {tol:.0e} after {iterations} iterations")
+        super().__init__(msg + (f" ({detail})" if detail else ""))
 
 
 @dataclass
@@ -120,7 +190,7 @@ def _is_p1(rank: np.ndarray) -> bool:
 
 def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
                      pin: int | None = None, tol: float = 1e-12,
-                     maxiter: int = 500, grid: tuple[np.ndarray, np.ndarray] | None = None
+                     maxiter: int = 100, grid: tuple[np.ndarray, np.ndarray] | None = None
                      ) -> tuple[np.ndarray, SolveInfo]:
     """Normalised null vector of the generator L (module docstring).
 
@@ -131,10 +201,19 @@ def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
     unit : ndarray
         ∫ φ_i (normalisation row).
     solver : {"auto", "direct", "amg", "amg-sa"}
+        ``"auto"``: AMG (AIR + GMRES) when L has the generator sign pattern
+        (off-diagonals ≥ 0, :func:`is_generator_pattern`) and at least
+        :data:`AMG_MIN_DOFS_STATIONARY` (= ∞, measured) unknowns, else the direct
+        solver; if AMG does not
+        reach its tolerance the direct solver is run and ``info.solver`` /
+        ``info.extra["fallback"]`` say so.  ``"amg"``/``"amg-sa"`` on request:
+        :class:`SolverNotConverged` if the tolerance is not reached (never an
+        unconverged density).
     pin : int, optional
         Row to replace (default: the DOF with the largest ∫φ_i).
     tol : float
-        Relative tolerance of the iterative solvers.
+        Relative tolerance of the iterative solvers (AMG: at least
+        :data:`AMG_TOL`, measured as ‖A p − b‖₂/‖b‖₂ after the solve).
     grid : (xrank, yrank), optional
         Tensor structure (spatial ranks of the 1-D DOFs) for the nested-dissection
         ordering of the direct solver.
@@ -142,20 +221,39 @@ def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
     Returns
     -------
     p, info
+
+    Raises
+    ------
+    SolverNotConverged
+        ``solver="amg"``/``"amg-sa"`` did not reach its tolerance.
     """
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {SOLVERS}; got {solver!r}")
-    A, b, pin = pinned_system(L, unit, pin)
+    requested = solver
     if solver == "auto":
-        solver = "direct"
+        solver = ("amg" if L.shape[0] >= AMG_MIN_DOFS_STATIONARY and is_generator_pattern(L)
+                  else "direct")
     t0 = time.perf_counter()
     it = 0
-    extra: dict = {"pin": pin}
+    extra: dict = {}
     if solver == "direct":
+        A, b, pin = pinned_system(L, unit, pin)
         p, it, extra["ordering"] = _solve_direct(A, b, grid, tol)
     else:
-        p, it = _solve_amg(A, b, kind="sa" if solver == "amg-sa" else "air",
-                           tol=tol, maxiter=maxiter)
+        # AMG wants positive diagonals: pin −L (same null vector, same e_k row)
+        A, b, pin = pinned_system(-sp.csr_matrix(L), unit, pin)
+        kind = "sa" if solver == "amg-sa" else "air"
+        try:
+            p, it = _solve_amg(A, b, kind=kind, tol=max(tol, AMG_TOL), maxiter=maxiter)
+            extra["ordering"] = f"amg-{kind}"
+        except SolverNotConverged as exc:
+            if requested != "auto":
+                raise
+            extra["fallback"] = str(exc)
+            B, b, pin = pinned_system(L, unit, pin)
+            p, it, extra["ordering"] = _solve_direct(B, b, grid, tol)
+            solver = f"direct (fallback: {exc.solver} did not converge)"
+    extra["pin"] = pin
     res = relative_residual(A, p, b)
     p = p / float(unit @ p)
     dt = time.perf_counter() - t0
@@ -195,23 +293,173 @@ def _solve_direct(A: sp.csr_matrix, b: np.ndarray, grid, tol: float):
     return x, it, ordering
 
 
+def _amg_hierarchy(A: sp.csr_matrix, kind: str):
+    import pyamg
+    if kind == "air":
+        return pyamg.air_solver(A, max_coarse=500)
+    return pyamg.smoothed_aggregation_solver(A, symmetry="nonsymmetric", max_coarse=500)
+
+
+def _krylov(A, b, M, *, tol: float, maxiter: int, x0=None, solver: str = "amg-air"
+            ) -> tuple[np.ndarray, int]:
+    """GMRES(50) preconditioned by ``M``, at most ``maxiter`` inner iterations; the
+    true relative residual ‖Ax−b‖₂/‖b‖₂ is checked afterwards and
+    :class:`SolverNotConverged` raised if it exceeds ``10·tol`` or is not finite."""
+    count = [0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        # SciPy counts restart cycles in maxiter: ``maxiter`` here is inner iterations
+        x, _info = spla.gmres(A, b, x0=x0, M=M, rtol=tol, restart=min(50, maxiter),
+                             maxiter=max(1, -(-maxiter // 50)),
+                             callback=lambda _: count.__setitem__(0, count[0] + 1),
+                             callback_type="pr_norm")
+    nb = float(np.linalg.norm(b))
+    res = float(np.linalg.norm(A @ x - b) / nb) if nb > 0 else float(np.linalg.norm(A @ x))
+    # judged by the true residual only: GMRES's own flag (info) also reports
+    # stagnation at round-off level, measured at 5e-10 on a converged 66k system
+    if not np.isfinite(res) or res > 10 * tol:
+        raise SolverNotConverged(solver, count[0], res, tol)
+    return x, count[0]
+
+
 def _solve_amg(A: sp.csr_matrix, b: np.ndarray, *, kind: str, tol: float,
                maxiter: int) -> tuple[np.ndarray, int]:
-    import pyamg
+    """AMG-preconditioned GMRES; raises :class:`SolverNotConverged`, never returns an
+    unconverged vector (measured on the Galerkin L: residual 1e-1 … 1e2)."""
+    try:
+        ml = _amg_hierarchy(A, kind)
+    except (ValueError, ArithmeticError, FloatingPointError) as exc:   # NaN in setup
+        raise SolverNotConverged(f"amg-{kind}", 0, float("nan"), tol,
+                                 f"setup failed: {exc}") from exc
+    return _krylov(A, b, ml.aspreconditioner(cycle="V"), tol=tol, maxiter=maxiter,
+                   solver=f"amg-{kind}")
 
-    if kind == "air":
-        ml = pyamg.air_solver(A)
-    else:
-        ml = pyamg.smoothed_aggregation_solver(A, symmetry="nonsymmetric")
-    count = [0]
 
-    def cb(_):
-        count[0] += 1
+def is_generator_pattern(L: sp.spmatrix, rtol: float = 1e-12) -> bool:
+    """True if every off-diagonal of L is ≥ −rtol·max|L| (the positive generator of
+    :mod:`fpk_vibro.fem.positivity`; also M − dt·L is then an M-matrix for a lumped,
+    diagonal M).  The Galerkin generator fails this (negative couplings)."""
+    L = sp.coo_matrix(L)
+    off = L.row != L.col
+    if not off.any():
+        return True
+    scale = float(np.max(np.abs(L.data))) if L.nnz else 1.0
+    return bool(L.data[off].min() >= -rtol * scale)
 
-    M = ml.aspreconditioner(cycle="V")
-    p, info = spla.gmres(A, b, M=M, rtol=tol, restart=50, maxiter=maxiter,
-                         callback=cb, callback_type="pr_norm")
-    if info != 0:
-        warnings.warn(f"AMG-preconditioned GMRES ({kind}) did not converge "
-                      f"({count[0]} iterations)", RuntimeWarning, stacklevel=3)
-    return p, count[0]
+
+def is_m_matrix_pattern(K: sp.spmatrix, rtol: float = 1e-12) -> bool:
+    """True if K has positive diagonal and off-diagonals ≤ rtol·max|K| (Z-matrix
+    sign pattern: M/dt − A for the positive generator A and lumped M)."""
+    K = sp.coo_matrix(K)
+    off = K.row != K.col
+    scale = float(np.max(np.abs(K.data))) if K.nnz else 1.0
+    diag = K.diagonal()
+    return bool(np.all(diag > 0) and (not off.any() or K.data[off].max() <= rtol * scale))
+
+
+def lu_bytes(n: int) -> float:
+    """Peak bytes of the SuperLU (grid ND) factorisation of an n-DOF Q1 step matrix,
+    fitted to the measured peaks (1.7 GB at 1.0e6, 7.6 GB at 4.0e6 DOFs, process
+    included; ~n^1.08 — the n log n fill of nested dissection)."""
+    return 7.6 * 2**30 * (n / 4.0e6) ** 1.08
+
+
+def _available() -> float:
+    from ..budget import available_memory
+    return available_memory()
+
+
+class Factorised:
+    """A reusable solver x = K⁻¹ b for one matrix K (the implicit-step matrix
+    a·M − h·L of a transient).  Call it: ``x = f(b)``.  ``f.kind`` is "lu" or
+    "amg"; ``f.info`` (dict) records the choice, setup seconds, iterations of the
+    last solve and any fallback.  See :func:`factorised`."""
+
+    def __init__(self, K: sp.spmatrix, *, solver: str, tol: float, maxiter: int,
+                 grid, ordering: str, reuse: bool = True) -> None:
+        self.K = sp.csr_matrix(K)
+        self.tol, self.maxiter, self.grid, self.ordering = tol, maxiter, grid, ordering
+        self.requested = solver
+        self.info: dict = {"requested": solver}
+        self._lu = self._ml = None
+        t0 = time.perf_counter()
+        if solver == "auto":
+            n = self.K.shape[0]
+            big = lu_bytes(n) > 0.5 * _available() if reuse else True
+            solver = ("amg" if n >= AMG_MIN_DOFS and big and is_m_matrix_pattern(self.K)
+                      else "direct")
+        self.kind = "lu" if solver == "direct" else "amg"
+        if self.kind == "amg":
+            try:
+                self._ml = _amg_hierarchy(self.K, "sa" if solver == "amg-sa" else "air")
+            except (ValueError, ArithmeticError, FloatingPointError) as exc:
+                self._fallback(SolverNotConverged(solver, 0, float("nan"), tol,
+                                                  f"setup failed: {exc}"))
+        else:
+            self._factor()
+        self.info.update(kind=self.kind, setup_seconds=time.perf_counter() - t0)
+
+    def _factor(self) -> None:
+        K, grid = self.K, self.grid
+        if grid is not None and all(_is_p1(r) for r in grid):
+            perm = grid_nested_dissection(*grid)
+            lu = spla.splu(K[perm][:, perm].tocsc(), permc_spec="NATURAL",
+                           diag_pivot_thresh=0.01, options={"SymmetricMode": True})
+
+            def apply(v):
+                out = np.empty_like(v)
+                out[perm] = lu.solve(v[perm])
+                return out
+            self._lu = apply
+        else:
+            self._lu = spla.splu(K.tocsc(), permc_spec=self.ordering).solve
+
+    def _fallback(self, exc: SolverNotConverged) -> None:
+        if self.requested != "auto":
+            raise exc
+        self.info["fallback"] = f"{exc}; switched to SuperLU"
+        self.kind, self._ml = "lu", None
+        self._factor()
+
+    def __call__(self, b: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
+        if self.kind == "amg":
+            try:
+                x, it = _krylov(self.K, b, self._ml.aspreconditioner(cycle="V"), tol=self.tol,
+                                maxiter=self.maxiter, x0=x0, solver="amg-air")
+                self.info["iterations"] = it
+                return x
+            except SolverNotConverged as exc:
+                self._fallback(exc)
+        return self._lu(b)
+
+
+def factorised(K: sp.spmatrix, *, solver: str = "auto", tol: float = AMG_TOL_STEP,
+               maxiter: int = 100, grid: tuple[np.ndarray, np.ndarray] | None = None,
+               ordering: str = "COLAMD", reuse: bool = True) -> Factorised:
+    """A solve callable for the implicit-step matrix K (e.g. ``a·M − h·L``).
+
+    ``solver="auto"`` (default): AIR-AMG-preconditioned GMRES when K has the
+    M-matrix sign pattern (positive generator with lumped masses,
+    :func:`is_m_matrix_pattern`), at least :data:`AMG_MIN_DOFS` unknowns *and* the
+    LU factor would take more than half the available memory (:func:`lu_bytes`).
+    Reason: the LU is factorised once and reused by every step with the same
+    matrix (measured at 4·10⁶ DOFs: factor 553 s, then ~4 s per solve, 7.6 GB;
+    AMG setup 328 s, then ~67 s per solve, 4.1 GB), so LU wins over a
+    many-step transient wherever it fits, and AMG is the way past its memory.
+    (A quieter run: LU 409 s / 7.2 GB, AMG setup 166 s + 19 s per solve / 3.9 GB.)
+    ``reuse=False`` (the matrix is solved once, e.g. the limited positive
+    transient's new matrix per step): AMG from :data:`AMG_MIN_DOFS` on, the
+    measured single-solve crossover (1e6 DOFs: AMG 79 s / 1.06 GB, SuperLU 91 s /
+    1.74 GB; 2.6e5: AMG 29 s, SuperLU 20 s);
+    otherwise SuperLU (``grid``: the nested-dissection ordering of a Q1 tensor
+    grid, else ``ordering``).  The Galerkin K (consistent mass) always gets LU:
+    AMG does not converge on it (measured, module docstring).  If an AMG solve
+    misses ``tol`` (true relative residual) the matrix is factorised by SuperLU,
+    that solve and all later ones use it, and ``info["fallback"]`` says why.
+    ``solver="direct"`` forces LU; ``"amg"`` forces AMG and raises
+    :class:`SolverNotConverged` instead of falling back.
+    """
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {SOLVERS}; got {solver!r}")
+    return Factorised(K, solver=solver, tol=tol, maxiter=maxiter, grid=grid, ordering=ordering,
+                      reuse=reuse)
