@@ -34,8 +34,10 @@ Measured (exact case r = 1, D2 = 0, paper a, b, c, D1, Δ; ny = 4 nx)
 - Speed (``python -m fpk_vibro.fem.benchmark``): L1 7.1e-6 with Q2, nx = 48
   (37 345 DOFs) in 0.3 s; 10⁶ Q1 DOFs assembled + solved in 19–46 s (machine
   load); the straightforward path (general assembly + SuperLU/COLAMD) is 3–11×
-  slower where it was run.  pyamg AIR / smoothed aggregation do not converge on
-  this matrix (residual 1e-1 … 1 after 19–39 GMRES iterations).
+  slower where it was run.  pyamg (AIR, smoothed aggregation) does not converge on
+  the Galerkin matrix; it does on the positive generator's step matrix M − dt A
+  (7–11 iterations at any size), where ``fem.solve.factorised`` picks it by size
+  (docs/fem_solvers.md).
 """
 from __future__ import annotations
 

@@ -132,6 +132,8 @@ class Discretisation:
                 "assembly": self.assembly, "discretisation": self.kind,
                 "discretisation_reason": f"requested (positivity={self.positivity!r})",
                 "positivity": self.positivity, "y_max": self.y_max, **extra}
+        if sinfo.extra.get("fallback"):
+            info["fallback"] = sinfo.extra["fallback"]
         sol = self.solution(p, **info)
         sol.residual = sinfo.residual
         if self.auto is not None:

@@ -39,6 +39,7 @@ import time
 from typing import Any, Sequence
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import scales
@@ -47,6 +48,7 @@ from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..solution import Solution
 from .discretisation import Discretisation, build
+from .solve import factorised as step_solver
 from .solution import FEMSolution
 
 __all__ = ["transient", "exponential", "Discretisation", "discretise", "relaxation_time"]
@@ -187,17 +189,26 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     factorised = [0]
     limited = positivity not in (False, "first-order")
 
+    def solver_of(K: sp.spmatrix, reuse: bool = True):
+        """A solve of K x = b: for the positive generator (an M-matrix step matrix)
+        LU or, above the measured size, AMG (:func:`fpk_vibro.fem.solve.factorised`)."""
+        if disc.kind == "positive":
+            xs, ys = disc.tensor
+            return step_solver(K.tocsr(), grid=(np.arange(xs.size), np.arange(ys.size)),
+                               reuse=reuse)
+        return spla.splu(K.tocsc(), **SPLU).solve
+
     def solve(a0: float, h: float, rhs: np.ndarray) -> np.ndarray:
         key = (round(a0, 14), round(h, 14))
         if key not in lu_cache:
             factorised[0] += 1
-            lu_cache[key] = spla.splu((a0 * M - h * L).tocsc(), **SPLU)
-        return lu_cache[key].solve(rhs)
+            lu_cache[key] = solver_of(a0 * M - h * L)
+        return lu_cache[key](rhs)
 
     def step(p: np.ndarray, p_prev: np.ndarray | None, h: float, h_prev: float | None):
-        if limited:      # flux factors of pⁿ: a new generator, one LU per step
+        if limited:      # flux factors of pⁿ: a new generator, one solve per step
             A = disc.limited_generator(p)
-            return spla.splu((M - h * A).tocsc(), **SPLU).solve(M @ p)
+            return solver_of(M - h * A, reuse=False)(M @ p)
         if scheme == "theta":
             return solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
         return _bdf2(solve, M, p, p_prev, h, h_prev)
