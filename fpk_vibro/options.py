@@ -197,8 +197,8 @@ class Options:
             if opt is None or opt.scene not in ("", "file"):
                 from ._checks import closest
                 keys = [k for k, o in declared.items() if o.scene in ("", "file")]
-                raise InputError(f"{full}: unknown key; allowed {keys}{closest(key, keys)}",
-                                 name=full)
+                hint = f" (set by {opt.scene})" if opt is not None else closest(key, keys)
+                raise InputError(f"{full}: unknown key; allowed {keys}{hint}", name=full)
             if mode not in opt.modes:
                 other = "stationary (no study.times)" if mode == "transient" else \
                     "transient (with study.times)"

@@ -239,20 +239,14 @@ def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
     for table in TABLES:
         given = data.get(table, {})
         clean[table] = {}
-        if table in ("averaging", "fem", "montecarlo") and not given:
-            continue
+        if table in ("averaging", "fem", "montecarlo"):
+            continue              # their Options.from_scene checks them, per mode
         keys = table_keys(table)
         for k, v in given.items():
             full = f"{table}.{k}"
             if k not in keys:
-                hint = closest(k, keys)
-                if table in ("averaging", "fem", "montecarlo"):
-                    other = _method_options(table).declared().get(k)
-                    if other is not None:
-                        hint = f" (set by {other.scene})"
-                raise SceneError(f"{full}: unknown key; allowed {list(keys)}{hint}", name=full)
-            if table in ("averaging", "fem", "montecarlo"):
-                continue          # checked per mode below
+                raise SceneError(f"{full}: unknown key; allowed {list(keys)}"
+                                 f"{closest(k, keys)}", name=full)
             try:
                 clean[table][k] = keys[k].validate(full, v, None)
             except InputError as exc:

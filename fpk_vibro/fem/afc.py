@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .solve import SolveInfo, grid_nested_dissection, pinned_system, relative_residual
+from .solve import SolveInfo, grid_nested_dissection, nd_lu, pinned_system, relative_residual
 
 __all__ = ["discrete_upwinding", "AFCLimiter", "stationary_afc"]
 
@@ -107,14 +107,7 @@ def stationary_afc(L: sp.spmatrix, M: sp.spmatrix, unit: np.ndarray, *, solver: 
     L_low, D = discrete_upwinding(L)
     A, b, pin = pinned_system(L_low, unit)
     if grid is not None:
-        perm = grid_nested_dissection(*grid)
-        lu = spla.splu(A[perm][:, perm].tocsc(), permc_spec="NATURAL",
-                       diag_pivot_thresh=0.01, options={"SymmetricMode": True})
-
-        def solve(rhs):
-            out = np.empty_like(rhs)
-            out[perm] = lu.solve(rhs[perm])
-            return out
+        solve = nd_lu(A, grid_nested_dissection(*grid))
     else:
         lu = spla.splu(A.tocsc(), permc_spec="COLAMD")
         solve = lu.solve

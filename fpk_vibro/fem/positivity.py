@@ -380,14 +380,11 @@ class _FrozenLU:
         self.frozen = unit.size <= max_n
 
     def _apply(self, v: np.ndarray) -> np.ndarray:
-        out = np.empty_like(v)
-        out[self.perm] = self.lu.solve(v[self.perm])
-        return out
+        return self.lu(v)
 
     def _factor(self, B: sp.csr_matrix) -> None:
-        import scipy.sparse.linalg as spla
-        self.lu = spla.splu(B[self.perm][:, self.perm].tocsc(), permc_spec="NATURAL",
-                            diag_pivot_thresh=0.01, options={"SymmetricMode": True})
+        from .solve import nd_lu
+        self.lu = nd_lu(B, self.perm)
         self.factorizations += 1
 
     def solve(self, A: sp.spmatrix, x0: np.ndarray, err: float) -> np.ndarray:

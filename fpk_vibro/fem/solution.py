@@ -38,6 +38,7 @@ from skfem import Functional
 from ..model import VibroImpactSystem
 from ..solution import Rule, Solution, Stored
 from . import integrals
+from .options import Options
 
 __all__ = ["FEMSolution"]
 
@@ -382,7 +383,7 @@ class FEMSolution(Solution):
             arrays["xnodes"], arrays["ynodes"] = self._tensor
         return meta, arrays
 
-    _meta_schema = {"degree": Rule.integer(1, 2), "cell": Rule.choice("quad", "tri"),
+    _meta_schema = {"degree": Rule.of(Options.declared()["degree"]), "cell": Rule.choice("quad", "tri"),
                     "residual": Rule.number(0.0, nan=True), "tensor": Rule.FLAG,
                     "mass": Rule.number(0.0, lo_open=True, none=True).optional(),
                     "info": Rule.mapping(Rule.SCALAR).optional()}

@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from .._checks import InputError
+from .._checks import InputError, invalid
 from ..budget import Cost
 from ..model import VibroImpactSystem
 from ..options import Options as _Options
@@ -81,7 +81,6 @@ class Options(_Options):
         where = f"montecarlo.{mode}"
 
         def bad(name: str, allowed: str, value: Any, why: str = "") -> InputError:
-            from .._checks import invalid
             return invalid(where, name, allowed, value, why)
 
         if self.n_batches > self.n_paths:
