@@ -24,7 +24,7 @@ from typing import Any
 from . import budget
 from ._checks import InputError, check_float, closest, invalid, show
 from .model import FIELDS, VibroImpactSystem
-from .options import REQUIRED, Option
+from .options import REQUIRED, Option, PerMode
 from .outdir import safe_name
 
 if sys.version_info >= (3, 11):
@@ -381,6 +381,10 @@ def schema_table() -> str:
         for k, opt in table_keys(table).items():
             if opt.default is REQUIRED:
                 default = "required"
+            elif isinstance(opt.default, PerMode) and opt.auto:
+                default = " / ".join(f"{mode}: " + (_toml(v) if v is not None else opt.auto)
+                                     for mode, v in (("stationary", opt.default.stationary),
+                                                     ("transient", opt.default.transient)))
             elif opt.auto in ("none", "") and opt.default is None:
                 default = "—"
             elif opt.auto:

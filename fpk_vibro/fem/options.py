@@ -92,7 +92,9 @@ class Options(_Options):
                                  lo_open=True, unit="m/s",
                                  auto="the energy-tail rule of fpk_vibro.scales (mass "
                                       "beyond < 1e-8)")
-    degree: int = option(1, "Lagrange degree: 1 (Q1/P1) or 2 (Q2/P2)", "int", lo=1, hi=2)
+    degree: int | None = option(PerMode(1, None), "Lagrange degree: 1 (Q1/P1) or 2 (Q2/P2)",
+                                "int", lo=1, hi=2,
+                                auto="2, or 1 with positivity")
     solver: str = option("auto", "linear solver of the stationary system", "choice",
                          choices=SOLVERS, modes=S)
     element: str = option("quad", "structured quadrilaterals or triangles", "choice",
@@ -210,6 +212,10 @@ class Options(_Options):
             raise InputError(f"fem.transient: initial mean[1] must lie in the truncated strip "
                              f"|y| <= y_max = {y_max:.4g}; got {init.mean[1]!r}",
                              where="fem.transient", name="initial")
+
+    def __post_init__(self) -> None:
+        if self.degree is None:            # frozen: resolved once, here
+            object.__setattr__(self, "degree", 1 if self.positivity not in (False, "auto") else 2)
 
     def grid(self, system: VibroImpactSystem, where: str = "fem"):
         """(domain, nx, ny) of the structured mesh these options give on ``system``."""

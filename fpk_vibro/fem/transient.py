@@ -48,7 +48,7 @@ from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..solution import Solution
 from .discretisation import Discretisation, build
-from .solve import factorised as step_solver
+from .solve import factorised as step_solver, grid_nested_dissection, is_p1, nd_lu
 from .solution import FEMSolution
 
 __all__ = ["transient", "exponential", "Discretisation", "discretise", "relaxation_time"]
@@ -63,10 +63,14 @@ SPLU = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.01,
 #: An accepted step is lengthened only when the error allows at least this factor:
 #: every new step size costs a factorisation.
 GROW_MIN = 1.5
+#: Adaptive step sizes per octave (the ladder dt·2^(k/LADDER)): few distinct matrices.
+LADDER = 2
+#: Factorised step matrices kept (least recently used dropped first).
+MAX_FACTORS = 16
 
 
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
-               ny: int | None = None, y_max: float | None = None, degree: int = 1,
+               ny: int | None = None, y_max: float | None = None, degree: int | None = None,
                element: str = "quad", grading: float = 0.0,
                positivity: bool | str = False) -> Discretisation:
     """Build the mesh and assemble (L, M) exactly as :func:`stationary` does; with
@@ -108,7 +112,8 @@ def default_dt(system: VibroImpactSystem) -> float:
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
               dt: float | None = None, scheme: str | None = None, nx: int | None = None,
-              ny: int | None = None, degree: int = 1, mesh=None, y_max: float | None = None,
+              ny: int | None = None, degree: int | None = None, mesh=None,
+              y_max: float | None = None,
               theta: float = 0.5, tol: float | None = None, progress: bool | None = None,
               discretisation: Discretisation | None = None,
               positivity: bool | str = False, element: str = "quad",
@@ -134,7 +139,11 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     scheme : {"bdf2", "theta", "euler"}, optional
         Default "bdf2"; with ``positivity`` only "euler" (or "theta" with θ = 1),
         which is the default then.
-    nx, ny, degree, mesh, y_max, element, grading
+    degree : {1, 2}, optional
+        Default 2 (Q2, nx = 48), or 1 with ``positivity``: on the paper packet Q2
+        reaches 0.03 % in about a third of the time Q1 (nx = 128) needs for 0.05 %
+        (docs/fem_transient.md).
+    nx, ny, mesh, y_max, element, grading
         As in :func:`fpk_vibro.fem.stationary`.
     theta : float
         θ of the θ-scheme, in [1/2, 1].
@@ -185,9 +194,13 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     disc = opts.discretisation or build(system, opts)
     p = _initial_vector(disc, initial)
     M, L = disc.M.tocsc(), disc.L.tocsc()
-    lu_cache: dict[tuple[float, float], Any] = {}
+    lu_cache: dict[float, Any] = {}
     factorised = [0]
     limited = positivity not in (False, "first-order")
+    # one nested-dissection order for every step matrix of a Q1 tensor grid (the
+    # pattern does not change with the step): ~40 % less factorisation time than MMD
+    order = (grid_nested_dissection(*disc.ranks)
+             if disc.ranks is not None and all(is_p1(r) for r in disc.ranks) else None)
 
     def solver_of(K: sp.spmatrix, reuse: bool = True):
         """A solve of K x = b: for the positive generator (an M-matrix step matrix)
@@ -196,14 +209,18 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             xs, ys = disc.tensor
             return step_solver(K.tocsr(), grid=(np.arange(xs.size), np.arange(ys.size)),
                                reuse=reuse)
+        if order is not None:
+            return nd_lu(K, order)
         return spla.splu(K.tocsc(), **SPLU).solve
 
     def solve(a0: float, h: float, rhs: np.ndarray) -> np.ndarray:
-        key = (round(a0, 14), round(h, 14))
+        """(a0 M − h L)⁻¹ rhs, through the factors of M − (h/a0) L (one per h/a0)."""
+        key = round(h / a0, 14)
         if key not in lu_cache:
             factorised[0] += 1
-            lu_cache[key] = solver_of(a0 * M - h * L)
-        return lu_cache[key](rhs)
+            lu_cache[key] = solver_of(M - key * L)
+        lu_cache[key] = lu_cache.pop(key)          # most recently used last
+        return lu_cache[key](rhs) / a0
 
     def step(p: np.ndarray, p_prev: np.ndarray | None, h: float, h_prev: float | None):
         if limited:      # flux factors of pⁿ: a new generator, one solve per step
@@ -266,48 +283,69 @@ def _mark_partial(out: list[FEMSolution], t_now: float) -> None:
 
 def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised
                     ) -> list[FEMSolution]:
-    """BDF2 with step-size control by Milne's device (see :func:`transient`)."""
+    """BDF2 with step-size control by Milne's device (see :func:`transient`).
+
+    Every step matrix is a rung M − g L of the ladder g = g_max·2^(−k/LADDER),
+    g_max = dt_max/1.5: the controller chooses the rung, and each step its length h
+    so that h/a0(h/h_prev) = g, the BDF2 leading coefficient a0 = (1+2ω)/(1+ω) with
+    ω = h/h_prev.  On a fixed rung h → 1.5 g (ω → 1); a change of rung is smooth
+    (ω ≤ 2.26 < 1 + √2, the zero-stability bound of variable-step BDF2) and costs
+    no factorisation beyond one per rung.  Output times are read off the quadratic
+    through the last three states (its error is of the order of the local error), so
+    no step is cut to hit them.
+    """
     M = disc.M.tocsc()
     hist = [(0.0, p)]                      # accepted (t, p), newest last, at most 3
-    h = dt_max / 1024.0                    # the first two steps are not error-controlled
-    out: list[FEMSolution] = []
+    g_max = dt_max / 1.5
+    k = 10 * LADDER                        # first rung g_max/1024: the first two
+    out: list[FEMSolution] = []            # steps are not error-controlled
     steps = rejected = 0
     t_now = 0.0
     try:
         for t_target in t_out:
             while t_now < t_target - 1e-12 * max(1.0, t_target):
-                h = min(h, dt_max)
-                h = dt_max * 2.0 ** (round(4 * math.log2(h / dt_max)) / 4)   # the LU ladder
-                step = min(h, t_target - t_now)
-                t_new = t_now + step
+                g = g_max * 2.0 ** (-k / LADDER)
                 prev = hist[-2] if len(hist) >= 2 else None
-                p_new = _bdf2(solve, M, hist[-1][1], None if prev is None else prev[1],
-                              step, None if prev is None else t_now - prev[0])
-                if len(hist) == 3:         # quadratic extrapolation: error O(h³), like BDF2
-                    (t0, p0), (t1, p1), (t2, p2) = hist
-                    l0 = (t_new - t1) * (t_new - t2) / ((t0 - t1) * (t0 - t2))
-                    l1 = (t_new - t0) * (t_new - t2) / ((t1 - t0) * (t1 - t2))
-                    l2 = (t_new - t0) * (t_new - t1) / ((t2 - t0) * (t2 - t1))
-                    err = (2.0 / 11.0) * float(disc.unit @ np.abs(p_new - (l0 * p0 + l1 * p1 + l2 * p2)))
+                if prev is None:           # implicit Euler: a0 = 1, h = g
+                    h, p_prev, h_prev = g, None, None
                 else:
-                    err = 0.0
+                    h_prev = t_now - prev[0]
+                    c = g / h_prev
+                    h = h_prev * ((2 * c - 1) + math.sqrt((2 * c - 1) ** 2 + 4 * c)) / 2
+                    p_prev = prev[1]
+                t_new = t_now + h
+                p_new = _bdf2(solve, M, hist[-1][1], p_prev, h, h_prev)
+                err = 0.0
+                if len(hist) == 3:         # quadratic extrapolation: error O(h³), like BDF2
+                    err = (2.0 / 11.0) * float(disc.unit @ np.abs(p_new - _lagrange(hist, t_new)))
                 factor = 2.0 if err == 0 else min(2.0, max(0.2, 0.9 * (tol / err) ** (1 / 3)))
                 if err > tol:
                     rejected += 1
-                    h = step * factor
+                    k += max(1, math.ceil(-LADDER * math.log2(factor)))
                     continue
                 t_now = t_new
                 hist = (hist + [(t_now, p_new)])[-3:]
                 steps += 1
-                if step >= h * 0.999 and factor >= GROW_MIN:
-                    h = step * factor
-                if len(lu_cache) > 24:
-                    lu_cache.clear()
-            out.append(_snapshot(disc, hist[-1][1], float(t_target), steps=steps,
+                if factor >= GROW_MIN and k > 0:
+                    k -= 1
+                while len(lu_cache) > MAX_FACTORS:        # least recently used out
+                    lu_cache.pop(next(iter(lu_cache)))
+            p_out = _lagrange(hist, float(t_target)) if t_now > t_target else hist[-1][1]
+            out.append(_snapshot(disc, p_out, float(t_target), steps=steps,
                                  rejected=rejected, scheme="bdf2", tol=tol,
                                  factorisations=factorised[0]))
     except KeyboardInterrupt:
         _mark_partial(out, t_now)
+    return out
+
+
+def _lagrange(hist: list[tuple[float, np.ndarray]], t: float) -> np.ndarray:
+    """The polynomial through the states of ``hist`` (up to three), at time t."""
+    ts = [h[0] for h in hist]
+    out = np.zeros_like(hist[-1][1])
+    for i, (ti, pi) in enumerate(hist):
+        w = math.prod((t - tj) / (ti - tj) for j, tj in enumerate(ts) if j != i)
+        out += w * pi
     return out
 
 
