@@ -153,8 +153,8 @@ def work_precision(doc: dict, path) -> Path:
     fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
     groups: dict[str, list] = {}
     for r in doc["rows"]:
-        label = r["method"] if not r["method"].startswith("fem") else \
-            r["method"].replace("fem", f"FE Q{r['degree']}")
+        label = (r["method"].replace("fem", f"FE Q{r['degree']}") if "degree" in r
+                 else r["method"].replace("fem", "FE"))
         groups.setdefault(label, []).append(r)
     for i, (label, rows) in enumerate(groups.items()):
         rows = sorted(rows, key=lambda r: r["seconds"])

@@ -6,6 +6,10 @@ density where it exists (r = 1 or no barrier, D2 = 0), else the finest FE soluti
 (Q2) with its error estimated from the two finest levels, cross-checked with Monte
 Carlo.  The error measure is the largest relative error of E[H], E[x²], E[y²].
 
+For a transient scene (``[study] times``, ``[initial]``) the error is the largest
+relative error of those moments over the scene's times, and the truth is the finest FE
+transient (Q2, tight time tolerance), its error estimated from two levels.
+
 ``fpk-vibro study averaging SCENE`` — the averaging error (L1 distance of p(H) and
 relative errors of the moments, FE as truth) over a grid of r and c.
 """
@@ -22,7 +26,8 @@ from .model import VibroImpactSystem
 from .io import atomic_write_text
 from .scenes import Scene
 
-__all__ = ["convergence_study", "averaging_study", "cost_of_accuracy"]
+__all__ = ["convergence_study", "transient_convergence_study", "averaging_study",
+           "cost_of_accuracy"]
 
 KEYS = ("E_H", "E_x2", "E_y2")
 
@@ -54,6 +59,8 @@ def _truth(system: VibroImpactSystem, quick: bool, log) -> dict[str, Any]:
 def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str, Any]:
     """Work–precision table of every method of the scene's (first) system."""
     from . import averaging, fem, montecarlo
+    if scene.mode == "transient":
+        return transient_convergence_study(scene, quick=quick, log=log)
     system = scene.points()[0][1]
     truth = _truth(system, quick, log)
     T = truth["moments"]
@@ -107,6 +114,76 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
                          "error": _err(sol.moments(), ref), "seconds": dt})
     return {"system": system.to_dict(), "truth": truth, "rows": rows,
             "cost": cost_of_accuracy(rows)}
+
+
+def _moments_over_time(sols) -> dict[str, np.ndarray]:
+    return {k: np.array([s.moments()[k] for s in sols]) for k in KEYS}
+
+
+def _err_t(m: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> float:
+    return max(float(np.max(np.abs(m[k] / truth[k] - 1))) for k in KEYS)
+
+
+def transient_convergence_study(scene: Scene, *, quick: bool = False, log=print
+                                ) -> dict[str, Any]:
+    """Work–precision of the transient methods from the scene's initial density.
+
+    Error: the largest relative error of E[H], E[x²], E[y²] over the scene's times.
+    Truth: FE Q2 with a tight time tolerance at two meshes, the finer one the truth and
+    a third of their difference its error estimate (second order in space).
+    """
+    from . import averaging, fem, montecarlo
+    system = scene.points()[0][1]
+    init, times = scene.initial, list(scene.times)
+
+    def fe(**kw):
+        return fem.transient(system, initial=init, times=times, progress=False, **kw)
+
+    levels = (32, 48) if quick else (64, 96)
+    fine = [_moments_over_time(fe(degree=2, nx=n, tol=1e-5)) for n in levels]
+    est = _err_t(fine[0], fine[1]) / 3.0
+    T = fine[1]
+    log(f"  truth: FE Q2 nx={levels[1]}, tol=1e-5 (error estimate {est:.1e})")
+    rows: list[dict[str, Any]] = []
+
+    def add(method: str, setting: str, m: dict[str, np.ndarray], seconds: float, **extra):
+        rows.append({"method": method, "setting": setting, "error": _err_t(m, T),
+                     "seconds": seconds, **extra})
+        log(f"  {method:<15s} {setting:<28s} error {rows[-1]['error']:.2e}  {seconds:7.2f} s")
+
+    methods = [m for m in scene.methods if m != "exact"]
+    if "fem" in methods:
+        fe(nx=8, degree=1)                # warm-up: imports and caches are not the cost
+        grid = ((("fem (default, Q2)", {}, (16, 24, 32)),
+                 ("fem (Q1)", {"degree": 1}, (32, 64)),
+                 ("fem (Q2, tol 1e-3)", {"tol": 1e-3}, (24,)))
+                if quick else
+                (("fem (default, Q2)", {}, (24, 32, 48, 64)),
+                 ("fem (Q1)", {"degree": 1}, (48, 96, 128)),
+                 ("fem (Q2, tol 1e-3)", {"tol": 1e-3}, (32, 48)),
+                 ("fem (Q2, tol 1e-4)", {"tol": 1e-4}, (48,))))
+        for label, kw, nxs in grid:
+            for nx in nxs:
+                sols, dt = _timed(lambda: fe(nx=nx, **kw))
+                add(label, f"nx={nx} ({sols[0].dofs.size} dofs)", _moments_over_time(sols), dt,
+                    steps=sols[-1].info.get("steps"))
+    if "averaging" in methods:
+        for n in ((100, 400) if quick else (100, 200, 400, 800)):
+            sols, dt = _timed(lambda: averaging.transient(system, initial=init, times=times,
+                                                          n_cells=n))
+            add("averaging", f"n_cells={n}", _moments_over_time(sols), dt)
+    if "montecarlo" in methods:
+        for n in ((1024, 4096) if quick else (1024, 4096, 16384)):
+            sols, dt = _timed(lambda: montecarlo.transient(
+                system, initial=init, times=times, n_paths=n, seed=1,
+                quantities=("energy",), progress=False))
+            se = max(float(np.max(np.abs(np.array([s.moments_se()[k] for s in sols])
+                                          / T[k]))) for k in KEYS)
+            add("montecarlo", f"{n} paths", _moments_over_time(sols), dt, se=se)
+    return {"system": system.to_dict(), "times": times,
+            "truth": {"source": f"FE Q2 nx={levels[1]} tol=1e-5", "error_estimate": est,
+                      "moments": {k: v.tolist() for k, v in T.items()}},
+            "rows": rows, "cost": cost_of_accuracy(rows)}
 
 
 def cost_of_accuracy(rows: list[dict[str, Any]], targets=(1e-2, 1e-3, 1e-4)) -> dict[str, Any]:

@@ -49,3 +49,24 @@ def test_averaging_study(tmp_path):
     # the error grows as r falls (1 − r⁴ no longer small)
     e = [abs(cells[(r, 0.025)]["rel_E_H"]) for r in doc["r"]]
     assert all(a < b for a, b in zip(e, e[1:]))
+
+
+def test_transient_convergence_study_on_the_packet():
+    """The transient packet's work–precision (quick, to t = 5): FE converges in space,
+    Monte Carlo lies within its standard error of the truth, averaging is a model error."""
+    from dataclasses import replace
+
+    from fpk_vibro import studies
+    from fpk_vibro.scenes import load_scene
+    scene = replace(load_scene(EXAMPLES / "transient_packet.toml"), times=(1.0, 5.0))
+    doc = studies.convergence_study(scene, quick=True, log=lambda *_: None)
+    rows, est = doc["rows"], doc["truth"]["error_estimate"]
+    assert est < 1e-3
+    q2 = [r["error"] for r in rows if r["method"] == "fem (default, Q2)"]
+    assert len(q2) == 3 and q2[0] > 2 * q2[-1] and q2[-1] < 3e-3
+    q1 = [r["error"] for r in rows if r["method"] == "fem (Q1)"]
+    assert q1[0] > 2.5 * q1[1]                                        # order ~2 in space
+    mc = [r for r in rows if r["method"] == "montecarlo"]
+    assert mc and all(r["error"] < 4 * r["se"] + est for r in mc)
+    avg = [r["error"] for r in rows if r["method"] == "averaging"]
+    assert all(e > 0.05 for e in avg)        # a narrow packet is no energy-only density at t = 1

@@ -123,7 +123,7 @@ class Options(_Options):
                           "float", lo=0.5, hi=1.0, modes=T)
     tol: float | None = option(None, "local L1 error per adaptive BDF2 step", "float",
                                lo=1e-14, hi=1.0, modes=T,
-                               auto="1e-5 when dt is not given (adaptive), else fixed steps")
+                               auto="3e-4 when dt is not given (adaptive), else fixed steps")
     progress: bool | None = option(None, "a progress line on stderr", "bool", modes=T,
                                    scene="cli --quiet", auto="when stderr is a terminal")
     discretisation: Any = option(None, "an assembled mesh and operator to reuse", "custom",
