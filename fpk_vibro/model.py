@@ -1,7 +1,10 @@
 """The vibro-impact Duffing oscillator shared by every method (DESIGN §1).
 
-    x'' + c x' + a x + b x³ = ξ1(t) + x ξ2(t),   |x| < Δ
-    y⁺ = −r y⁻   at x = ±Δ
+    x'' + c x' + a x + b x³ = ξ1(t) + x ξ2(t),   x_L < x < x_R
+    y⁺ = −r_L y⁻ at x = x_L,   y⁺ = −r_R y⁻ at x = x_R
+
+Either wall may be absent (x_L = −∞ or x_R = +∞); the symmetric shorthand
+``delta``, ``r``, ``barriers`` builds walls at ±Δ with one restitution.
 
 with E[ξi(t) ξi(t + τ)] = 2 Di δ(τ).  In Itô form (no Wong–Zakai correction)
 
@@ -20,9 +23,56 @@ import numpy as np
 from ._checks import InputError, check_float, invalid
 from .options import REQUIRED, Option
 
-__all__ = ["VibroImpactSystem", "BARRIER_KINDS", "FIELDS", "check_system"]
+__all__ = ["VibroImpactSystem", "Wall", "BARRIER_KINDS", "FIELDS", "WALL_FIELDS",
+           "check_system"]
 
-BARRIER_KINDS = ("both", "right", "none")
+BARRIER_KINDS = ("both", "right", "left", "none")
+
+#: The fields of one wall ([barriers.left] / [barriers.right] in a scene).
+WALL_FIELDS: dict[str, Option] = {
+    "position": Option(REQUIRED, "wall position x_w (any side of the equilibrium)", "float",
+                       lo=float("-inf"), unit="m"),
+    "r": Option(1.0, "restitution coefficient of this wall, y⁺ = −r y⁻", "float", lo=0.0,
+                hi=1.0),
+}
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A rigid wall at x = ``position`` with restitution ``r`` (y⁺ = −r y⁻).
+
+    Parameters
+    ----------
+    position : float
+        Where the wall stands; any finite value (at or beyond the equilibrium too).
+    r : float, default 1
+        Restitution coefficient in [0, 1]: 1 elastic, 0 plastic.
+    """
+
+    position: float
+    r: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name, opt in WALL_FIELDS.items():
+            object.__setattr__(self, name, opt.validate(name, getattr(self, name), "Wall"))
+
+    @classmethod
+    def of(cls, value: Any, side: str, where: str = "VibroImpactSystem") -> "Wall | None":
+        """A Wall from a Wall, a {position, r} table or None (no wall)."""
+        if value is None or isinstance(value, Wall):
+            return value
+        if isinstance(value, dict):
+            unknown = set(value) - set(WALL_FIELDS)
+            if unknown or "position" not in value:
+                raise invalid(where, side, "a Wall or a table {position, r}",
+                              value, f"unknown keys {sorted(unknown)}" if unknown
+                              else "position is required")
+            try:
+                return cls(**value)
+            except InputError as exc:
+                raise InputError(f"{where}: {side}.{exc.name} {exc.rule}", where=where,
+                                 name=side) from None
+        raise invalid(where, side, "a Wall, a table {position, r} or None", value)
 
 #: The model's fields, declared once: validation here, the scene's [system] and
 #: [barriers] tables and the README's key table come from this.
@@ -43,9 +93,18 @@ FIELDS: dict[str, Option] = {
                     lo=0.0, lo_open=True, unit="m", scene="barriers.delta"),
     "r": Option(1.0, "restitution coefficient, y⁺ = −r y⁻", "float", lo=0.0, hi=1.0,
                 scene="barriers.r"),
-    "barriers": Option("both", "barriers at ±Δ, at +Δ only, or none", "choice",
-                       choices=BARRIER_KINDS, scene="barriers.sides"),
+    "barriers": Option("both", "barriers at ±Δ, at +Δ only, at −Δ only, or none",
+                       "choice", choices=BARRIER_KINDS, scene="barriers.sides"),
+    "left": Option(None, "the left wall {position, r} (instead of the shorthand)", "custom",
+                   check=lambda n, v, w: Wall.of(v, n, w), allowed="a table {position, r}",
+                   scene="barriers.left", auto="from delta, r, sides"),
+    "right": Option(None, "the right wall {position, r} (instead of the shorthand)",
+                    "custom", check=lambda n, v, w: Wall.of(v, n, w),
+                    allowed="a table {position, r}", scene="barriers.right",
+                    auto="from delta, r, sides"),
 }
+#: The fields that make the symmetric shorthand, and their defaults.
+SHORTHAND = {"delta": None, "r": 1.0, "barriers": "both"}
 
 
 def _fail(field: str, allowed: str, value: Any, why: str = "") -> InputError:
@@ -71,18 +130,36 @@ class VibroImpactSystem:
     D2 : float
         Parametric noise intensity, D2 ≥ 0 (noise x ξ2(t)).  The paper's ε²D22.
     delta : float or None
-        Barrier position Δ > 0 (barriers at x = ±Δ, or only +Δ).  Ignored (may
-        be None) when ``barriers="none"``.
+        Symmetric shorthand: barrier position Δ > 0 (walls at x = ±Δ, or at +Δ or
+        −Δ only).  Ignored (may be None) when ``barriers="none"``.
     r : float
-        Restitution coefficient, 0 ≤ r ≤ 1 (paper Eq. 1b): y⁺ = −r y⁻.
-    barriers : {"both", "right", "none"}
-        Bilateral barriers at ±Δ (the paper's case), a unilateral barrier at +Δ,
-        or no barrier.
+        Symmetric shorthand: restitution coefficient, 0 ≤ r ≤ 1 (paper Eq. 1b):
+        y⁺ = −r y⁻.
+    barriers : {"both", "right", "left", "none"}
+        Symmetric shorthand: walls at ±Δ (the paper's case), at +Δ only, at −Δ only,
+        or none.
+    left, right : Wall or None
+        The walls themselves, each with its own position and restitution (any
+        positions with left < right; either may be None: no wall on that side).  Given
+        instead of the shorthand; after construction both attributes are always set
+        (a :class:`Wall` or None), and ``delta``, ``r``, ``barriers`` describe the walls
+        where they can (``delta`` None unless the walls are at ±Δ or there is one wall
+        at a positive +Δ / negative −Δ; ``r`` None when the walls differ).
 
     Raises
     ------
     ValueError
         For any invalid field, naming the field, the allowed range and the value.
+
+    Examples
+    --------
+    >>> from fpk_vibro import VibroImpactSystem, Wall
+    >>> s = VibroImpactSystem(a=1, b=0.2, c=0.025, D1=0.01,
+    ...                       left=Wall(-0.4, r=0.7), right=Wall(0.8, r=0.95))
+    >>> s.x_bounds, s.barriers, s.delta, s.r
+    ((-0.4, 0.8), 'both', None, None)
+    >>> VibroImpactSystem.paper(r=0.9).left
+    Wall(position=-0.6, r=0.9)
     """
 
     a: float
@@ -91,29 +168,76 @@ class VibroImpactSystem:
     D1: float
     D2: float = 0.0
     delta: float | None = None
-    r: float = 1.0
+    r: float | None = 1.0
     barriers: str = "both"
+    left: Wall | None = None
+    right: Wall | None = None
 
     def __post_init__(self) -> None:
         where = "VibroImpactSystem"
-        for name in ("barriers",) + tuple(k for k in FIELDS if k != "barriers"):
-            value = getattr(self, name)
-            if name == "delta" and not self.has_barrier:      # ignored: None or finite
-                if value is not None:
-                    object.__setattr__(self, name, check_float(name, value, where=where))
-                continue
-            if name == "delta" and value is None:
-                raise _fail(name, "a finite number > 0 when there is a barrier", value)
-            object.__setattr__(self, name, FIELDS[name].validate(name, value, where))
-        if self.barriers != "both" and not (self.b > 0 or (self.b == 0 and self.a > 0)):
+        for name in ("a", "b", "c", "D1", "D2"):
+            object.__setattr__(self, name, FIELDS[name].validate(name, getattr(self, name), where))
+        left, right = Wall.of(self.left, "left"), Wall.of(self.right, "right")
+        if left is not None or right is not None:
+            self._derive_shorthand(left, right)
+        else:
+            self._build_walls()
+        left, right = self.left, self.right
+        if left is not None and right is not None and not left.position < right.position:
+            raise _fail("left", f"a wall left of the right wall (x < {right.position})",
+                        left.position, "the strip between the walls would be empty")
+        free = [side for side, w in (("left", left), ("right", right)) if w is None]
+        if free and not (self.b > 0 or (self.b == 0 and self.a > 0)):
             field = "b" if self.b != 0 else "a"
-            raise _fail(field, "b > 0, or b = 0 with a > 0, on a side without barrier",
+            raise _fail(field, "b > 0, or b = 0 with a > 0, on a side without a wall",
                         getattr(self, field),
-                        f"with barriers={self.barriers!r} the potential must confine x "
-                        f"where there is no barrier (a={self.a}, b={self.b})")
-        if self.c == 0 and (self.r == 1.0 or not self.has_barrier):
+                        f"there is no {' or '.join(free)} wall, so the potential must "
+                        f"confine x there (a={self.a}, b={self.b})")
+        if self.c == 0 and all(w is None or w.r == 1.0 for w in (left, right)):
             raise _fail("c", "> 0 when there is no other energy loss (r = 1 or no barrier)",
                         self.c, "without any dissipation there is no stationary density")
+
+    def _build_walls(self) -> None:
+        """left/right from the shorthand delta, r, barriers (validated here)."""
+        where = "VibroImpactSystem"
+        barriers = FIELDS["barriers"].validate("barriers", self.barriers, where)
+        object.__setattr__(self, "barriers", barriers)
+        object.__setattr__(self, "r", FIELDS["r"].validate("r", self.r, where))
+        if barriers == "none":
+            if self.delta is not None:                    # ignored: None or finite
+                object.__setattr__(self, "delta", check_float("delta", self.delta, where=where))
+            return
+        if self.delta is None:
+            raise _fail("delta", "a finite number > 0 when there is a barrier", self.delta)
+        d = FIELDS["delta"].validate("delta", self.delta, where)
+        object.__setattr__(self, "delta", d)
+        if barriers in ("both", "left"):
+            object.__setattr__(self, "left", Wall(-d, self.r))
+        if barriers in ("both", "right"):
+            object.__setattr__(self, "right", Wall(d, self.r))
+
+    def _derive_shorthand(self, left: Wall | None, right: Wall | None) -> None:
+        """delta, r, barriers from given walls; a shorthand given too must agree."""
+        if left is not None and right is not None:
+            barriers = "both"
+            delta = (right.position if left.position == -right.position and right.position > 0
+                     else None)
+        elif right is not None:
+            barriers, delta = "right", (right.position if right.position > 0 else None)
+        else:
+            barriers, delta = "left", (-left.position if left.position < 0 else None)
+        rs = {w.r for w in (left, right) if w is not None}
+        derived = {"delta": delta, "r": rs.pop() if len(rs) == 1 else None,
+                   "barriers": barriers}
+        for name, value in derived.items():
+            given = getattr(self, name)
+            if given != SHORTHAND[name] and given != value:
+                raise _fail(name, f"{value!r} (what the walls give) or left out", given,
+                            "give the walls (left, right) or the symmetric shorthand "
+                            "(delta, r, barriers), not both")
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "left", left)
+        object.__setattr__(self, "right", right)
 
     # -- construction -------------------------------------------------------------
     @classmethod
@@ -124,7 +248,10 @@ class VibroImpactSystem:
         any field can be overridden by keyword (e.g. ``delta=1.0`` for Figs 6–7).
         """
         fields = dict(a=1.0, b=0.2, c=0.025, D1=0.01, D2=0.01, delta=0.6, r=r, barriers="both")
-        unknown = set(overrides) - set(fields)
+        if "left" in overrides or "right" in overrides:      # walls instead of ±Δ
+            for name in SHORTHAND:
+                fields.pop(name)
+        unknown = set(overrides) - set(fields) - {"left", "right"}
         if unknown:
             raise ValueError(f"VibroImpactSystem.paper: unknown field(s) {sorted(unknown)}; "
                              f"allowed: {sorted(fields)}")
@@ -132,14 +259,47 @@ class VibroImpactSystem:
         return cls(**fields)
 
     def replace(self, **changes: Any) -> "VibroImpactSystem":
-        """A copy with some fields changed (validated again)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (validated again).
+
+        Changing the shorthand (``delta``, ``r``, ``barriers``) rebuilds the walls from
+        it; changing a wall keeps the other one.  Wall attributes may be changed by
+        dotted name: ``replace(**{"left.r": 0.5})``.
+        """
+        walls = {"left": self.left, "right": self.right}
+        for key in [k for k in changes if "." in k]:
+            side, attr = key.split(".", 1)
+            if side not in walls or attr not in WALL_FIELDS:
+                raise invalid("VibroImpactSystem.replace", key,
+                              "a field or left.position, left.r, right.position, right.r",
+                              changes[key])
+            if walls[side] is None:
+                raise invalid("VibroImpactSystem.replace", key, "a change of an existing "
+                              "wall", changes[key], f"this system has no {side} wall")
+            try:
+                walls[side] = dataclasses.replace(walls[side], **{attr: changes.pop(key)})
+            except InputError as exc:
+                raise InputError(f"VibroImpactSystem: {key} {exc.rule}",
+                                 where="VibroImpactSystem", name=key) from None
+            changes[side] = walls[side]
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if set(changes) & set(SHORTHAND) and not set(changes) & {"left", "right"}:
+            fields.update(left=None, right=None)
+        elif set(changes) & {"left", "right"}:
+            fields.update(SHORTHAND)
+        fields.update(changes)
+        return type(self)(**fields)
 
     def to_dict(self) -> dict[str, Any]:
+        """The fields as plain values (walls as {position, r} tables or None)."""
         return dataclasses.asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> "VibroImpactSystem":
+        """Inverse of :meth:`to_dict`; a dict without walls uses the shorthand."""
+        data = dict(data)
+        if data.get("left") is not None or data.get("right") is not None:
+            for name in SHORTHAND:            # derived from the walls
+                data.pop(name, None)
         return cls(**data)
 
     def to_json(self) -> str:
@@ -148,16 +308,26 @@ class VibroImpactSystem:
     # -- geometry and energy ------------------------------------------------------
     @property
     def has_barrier(self) -> bool:
-        return self.barriers != "none"
+        return self.left is not None or self.right is not None
+
+    @property
+    def walls(self) -> tuple[tuple[str, Wall], ...]:
+        """(("left", Wall), ("right", Wall)) for the walls that exist."""
+        return tuple((side, w) for side, w in (("left", self.left), ("right", self.right))
+                     if w is not None)
+
+    @property
+    def symmetric(self) -> bool:
+        """True when the walls are at ±Δ with one restitution, or there are none."""
+        return (self.left is None and self.right is None) or (
+            self.left is not None and self.right is not None
+            and self.left.position == -self.right.position and self.left.r == self.right.r)
 
     @property
     def x_bounds(self) -> tuple[float, float]:
-        """(left, right) limits of the strip; ±inf where there is no barrier."""
-        if self.barriers == "both":
-            return (-self.delta, self.delta)
-        if self.barriers == "right":
-            return (-math.inf, self.delta)
-        return (-math.inf, math.inf)
+        """(left, right) limits of the strip; ±inf where there is no wall."""
+        return (-math.inf if self.left is None else self.left.position,
+                math.inf if self.right is None else self.right.position)
 
     def in_strip(self, x: np.ndarray) -> np.ndarray:
         """Boolean mask of points with left ≤ x ≤ right."""
@@ -176,10 +346,11 @@ class VibroImpactSystem:
 
     @property
     def barrier_energy(self) -> float:
-        """G(Δ): energies above it impact (paper Eq. 5).  inf without barrier."""
+        """The lowest wall energy min G(x_w): energies above it impact (paper Eq. 5:
+        G(Δ)).  inf without walls."""
         if not self.has_barrier:
             return math.inf
-        return float(self.potential(self.delta))
+        return min(float(self.potential(w.position)) for _, w in self.walls)
 
     def amplitude(self, H: np.ndarray) -> np.ndarray:
         """Amplitude A with G(A) = H, A² = 4H / (sqrt(a² + 4bH) + a) (DESIGN §1).
@@ -212,10 +383,7 @@ class VibroImpactSystem:
         out.append("external_noise")
         if self.D2 != 0:
             out.append("parametric_noise")
-        if self.has_barrier:
-            out.append("impact_right")
-        if self.barriers == "both":
-            out.append("impact_left")
+        out += [f"impact_{side}" for side, _ in self.walls[::-1]]
         return out
 
 

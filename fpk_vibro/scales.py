@@ -34,9 +34,21 @@ __all__ = ["energy_scale", "length_scale", "omega0", "period", "relaxation_rate"
 TAIL_MASS = 1e-8
 
 
+def _wall_extent(system: VibroImpactSystem) -> float:
+    """max |x_w| over the walls (Δ for walls at ±Δ); 1 without walls or with one at 0."""
+    d = max((abs(w.position) for _, w in system.walls), default=0.0)
+    return d if d > 0 else 1.0
+
+
+def _largest_r(system: VibroImpactSystem) -> float:
+    """The restitution of the least dissipative wall (r for walls at ±Δ)."""
+    return max((w.r for _, w in system.walls), default=1.0)
+
+
 def _omega_lin(system: VibroImpactSystem) -> float:
-    """sqrt(|a| + |b| Δ²) (or (D1/Δ²)^(1/3) for a free particle between barriers)."""
-    d = system.delta if system.has_barrier else 1.0
+    """sqrt(|a| + |b| Δ²) (or (D1/Δ²)^(1/3) for a free particle between barriers);
+    Δ = max |x_w| over the walls."""
+    d = _wall_extent(system)
     w2 = abs(system.a) + abs(system.b) * d * d
     return math.sqrt(w2) if w2 > 0 else (system.D1 / (d * d)) ** (1.0 / 3.0)
 
@@ -45,7 +57,7 @@ def _rate0(system: VibroImpactSystem) -> float:
     """c, or with c = 0 (inelastic barrier required) (1 − r²) ω_lin/2π."""
     if system.c > 0:
         return system.c
-    return (1.0 - system.r ** 2) * _omega_lin(system) / (2.0 * math.pi)
+    return (1.0 - _largest_r(system) ** 2) * _omega_lin(system) / (2.0 * math.pi)
 
 
 def energy_scale(system: VibroImpactSystem) -> float:
@@ -54,11 +66,12 @@ def energy_scale(system: VibroImpactSystem) -> float:
 
 
 def amplitude_scale(system: VibroImpactSystem, n_scales: float = 5.0) -> float:
-    """Amplitude at ``n_scales`` energy scales, capped by Δ with two barriers."""
+    """Amplitude at ``n_scales`` energy scales, capped by max |x_w| with two walls."""
     A = float(system.amplitude(n_scales * energy_scale(system)))
     if not math.isfinite(A):
-        A = system.delta if system.has_barrier else 1.0
-    return min(A, system.delta) if system.barriers == "both" else A
+        A = _wall_extent(system)
+    both = system.left is not None and system.right is not None
+    return min(A, _wall_extent(system)) if both else A
 
 
 def length_scale(system: VibroImpactSystem) -> float:
@@ -84,11 +97,12 @@ def relaxation_rate(system: VibroImpactSystem) -> float:
     c when c > 0: paths below the barrier energy G(Δ) lose energy only through
     damping, so they set the slowest time scale.  With c = 0 (allowed only with an
     inelastic barrier) the impact loss rate (1 − r²)/T0: one impact per period
-    removes the fraction 1 − r² of the kinetic energy at impact.
+    removes the fraction 1 − r² of the kinetic energy at impact (r of the least
+    dissipative wall).
     """
     if system.c > 0:
         return system.c
-    return (1.0 - system.r ** 2) / period(system)
+    return (1.0 - _largest_r(system) ** 2) / period(system)
 
 
 def relaxation_time(system: VibroImpactSystem) -> float:
@@ -97,17 +111,17 @@ def relaxation_time(system: VibroImpactSystem) -> float:
 
 
 def potential_min(system: VibroImpactSystem) -> float:
-    """min G over the strip (0 unless a < 0 < b, the double well, or softening walls)."""
+    """min G over the strip: at x = 0, at the wells ±sqrt(−a/b) (a < 0 < b) or at a
+    wall, whichever of them lie on the strip."""
     a, b = system.a, system.b
-    g = 0.0
+    lo, hi = system.x_bounds
+    cands = [0.0]
     if a < 0 < b:
-        xm2 = -a / b
-        lo, hi = system.x_bounds
-        if xm2 <= max(lo * lo, hi * hi):
-            g = -a * a / (4.0 * b)
-    if system.barriers == "both" and b < 0:
-        g = min(g, float(system.potential(system.delta)))
-    return g
+        xm = math.sqrt(-a / b)
+        cands += [-xm, xm]
+    cands += [w.position for _, w in system.walls]
+    on = [x for x in cands if lo <= x <= hi]
+    return float(min(system.potential(x) for x in on))
 
 
 def reach(system: VibroImpactSystem, H: np.ndarray) -> np.ndarray:

@@ -23,7 +23,7 @@ from typing import Any
 
 from . import budget
 from ._checks import InputError, check_float, closest, invalid, show
-from .model import FIELDS, VibroImpactSystem
+from .model import FIELDS, WALL_FIELDS, VibroImpactSystem
 from .options import REQUIRED, Option, PerMode
 from .outdir import safe_name
 
@@ -38,7 +38,13 @@ __all__ = ["Scene", "SceneError", "load_scene", "parse_scene", "SCHEMA", "METHOD
 METHODS = ("averaging", "fem", "montecarlo", "exact")
 QUANTITIES = ("energy", "x", "y", "joint", "moments")
 FORMATS = ("json", "npz", "png", "vtu")
-SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r")
+SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
+             "right.position", "right.r")
+
+
+def _sweep_option(p: str) -> Option:
+    """The declaration a swept value is checked against (a model or a wall field)."""
+    return WALL_FIELDS[p.split(".")[1]] if "." in p else FIELDS[p]
 #: Largest scene file read (bytes).
 MAX_SCENE_BYTES = 1 << 20
 
@@ -138,7 +144,8 @@ def table_keys(table: str) -> dict[str, Option]:
                 if o.scene in ("", "file")}
     if table == "sweep":
         return {p: Option(None, f"list of values of {p}", "custom", check=_numbers(None),
-                          allowed="list of numbers", unit=FIELDS[p].unit, auto="no sweep")
+                          allowed="list of numbers", unit=_sweep_option(p).unit,
+                          auto="no sweep")
                 for p in SWEEPABLE}
     return STUDY_KEYS[table]
 
@@ -238,6 +245,10 @@ def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
     clean: dict[str, dict[str, Any]] = {}
     for table in TABLES:
         given = data.get(table, {})
+        if table == "sweep":      # TOML reads `left.r = [...]` as a sub-table
+            given = {(f"{k}.{kk}" if isinstance(v, dict) else k): (vv if isinstance(v, dict) else v)
+                     for k, v in given.items()
+                     for kk, vv in (v.items() if isinstance(v, dict) else [(None, v)])}
         clean[table] = {}
         if table in ("averaging", "fem", "montecarlo"):
             continue              # their Options.from_scene checks them, per mode
@@ -271,9 +282,11 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     fields = {_FIELD_OF_KEY[f"system.{k}"]: v for k, v in sys_.items()}
     fields.update({_FIELD_OF_KEY[f"barriers.{k}"]: v for k, v in bar.items()})
     sides = fields.get("barriers", "both")
-    if sides != "none" and fields.get("delta") is None:
+    walls = fields.get("left") is not None or fields.get("right") is not None
+    if sides != "none" and fields.get("delta") is None and not walls:
         raise SceneError(f"barriers.delta: required key is missing (sides = {sides!r} needs "
-                         "the barrier position)", name="barriers.delta")
+                         "the barrier position, or give [barriers.left] / "
+                         "[barriers.right])", name="barriers.delta")
     try:
         system = VibroImpactSystem(**fields)
     except InputError as exc:
@@ -288,7 +301,7 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                          "(fpk_vibro.budget.MAX_POINTS); use fewer or force it (--force)",
                          name="sweep")
     for k, values in sweep.items():
-        field_opt = FIELDS[k]
+        field_opt = _sweep_option(k)
         for i, v in enumerate(values):
             try:
                 field_opt.validate(k, v, None)

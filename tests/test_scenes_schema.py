@@ -58,7 +58,20 @@ BAD = [
     ("negative delta", GOOD.replace("delta = 0.6", "delta = -0.6"), "barriers.delta", "delta"),
     ("missing a", GOOD.replace("a = 1.0\n", ""), "system.a", "missing"),
     ("missing delta", GOOD.replace("delta = 0.6\n", ""), "barriers.delta", "missing"),
-    ("unknown sides", GOOD.replace("r = 0.92", 'r = 0.92\nsides = "left"'), "barriers.sides", "both"),
+    ("unknown sides", GOOD.replace("r = 0.92", 'r = 0.92\nsides = "above"'), "barriers.sides", "both"),
+    ("walls crossed", GOOD.replace("r = 0.92", "r = 0.92\n[barriers.left]\nposition = 0.7\n"
+                                  "[barriers.right]\nposition = 0.5")
+     .replace("delta = 0.6\n", "").replace("r = 0.92\n", ""), "barriers.left", "left of"),
+    ("wall r out of range", GOOD.replace("r = 0.92", "[barriers.right]\nposition = 0.5\nr = 1.5")
+     .replace("delta = 0.6\n", ""), "barriers.right", "[0, 1]"),
+    ("wall without position", GOOD.replace("r = 0.92", "[barriers.right]\nr = 0.5")
+     .replace("delta = 0.6\n", ""), "barriers.right", "position"),
+    ("wall unknown key", GOOD.replace("r = 0.92", "[barriers.right]\nposition = 0.5\nrr = 0.5")
+     .replace("delta = 0.6\n", ""), "barriers.right", "rr"),
+    ("walls and shorthand disagree", GOOD.replace("r = 0.92", "r = 0.92\n[barriers.right]\n"
+     "position = 0.5"), "barriers.delta", "not both"),
+    ("sweep of a missing wall", GOOD.replace("r = 0.92", "r = 0.92\nsides = \"right\"") +
+     "\n[sweep]\nleft.r = [0.5]\n", "sweep.left.r", "no left wall"),
     ("missing system", "[barriers]" + GOOD.split("[barriers]")[1], "[system]", "missing"),
     ("missing study", GOOD.split("[study]")[0], "[study]", "missing"),
     ("negative time", GOOD.replace('quantities =', 'times = [1.0, -2.0]\nquantities ='), "study.times[1]", ">="),
