@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import importlib
 
-from .model import VibroImpactSystem
+from .model import VibroImpactSystem, Wall
 from .solution import MOMENT_KEYS, Solution
 
-__all__ = ["VibroImpactSystem", "Solution", "MOMENT_KEYS",
+__all__ = ["VibroImpactSystem", "Wall", "Solution", "MOMENT_KEYS",
            "averaging", "exact", "fem", "montecarlo"]
 __version__ = "0.1.0"
 
