@@ -55,10 +55,10 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *
         ax.plot(H, sol.pdf_energy(H), lw=1.6, label=label)
     for label, Hp, pp, se in points:
         ax.errorbar(Hp, pp, yerr=se, fmt="o", ms=3.5, mfc="none", capsize=2, label=label)
-    Gb = {sol.system.barrier_energy for _, sol in curves if sol.system.has_barrier}
-    for g in sorted(Gb):
+    marks = {g: label for _, sol in curves for g, label in _wall_energies(sol.system)}
+    for g, label in sorted(marks.items()):
         ax.axvline(g, color="0.6", ls=":", lw=1)
-        ax.text(g, ax.get_ylim()[1] * 0.97, r" $G(\Delta)$", va="top", fontsize=8, color="0.4")
+        ax.text(g, ax.get_ylim()[1] * 0.97, " " + label, va="top", fontsize=8, color="0.4")
     ax.set_xlim(0, H_max)
     ax.set_xlabel(r"energy $H = y^2/2 + G(x)$")
     ax.set_ylabel(r"probability density $p(H)$")
@@ -66,6 +66,24 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *
         ax.set_title(title, fontsize=10)
     ax.legend(frameon=False, fontsize=9)
     return _save(fig, path)
+
+
+def _wall_energies(system) -> list[tuple[float, str]]:
+    """(G(x_w), label) of each wall; one label for walls at ±Δ."""
+    if system.symmetric and system.has_barrier:
+        return [(float(system.potential(system.right.position)), r"$G(\Delta)$")]
+    return [(float(system.potential(w.position)), rf"$G(x_{side[0].upper()})$")
+            for side, w in system.walls]
+
+
+def _draw_walls(ax, system) -> None:
+    """Each wall as a thick grey line at its position, labelled with its r."""
+    for side, w in system.walls:
+        ax.axvline(w.position, color="0.35", lw=2.2, zorder=5)
+        ax.annotate(f"r = {w.r:g}", (w.position, 1.0), xycoords=("data", "axes fraction"),
+                    ha="left" if side == "left" else "right", va="top", fontsize=7,
+                    color="0.3", xytext=(3 if side == "left" else -3, -2),
+                    textcoords="offset points")
 
 
 _LABELS = {"energy": (r"energy $H$", r"$p(H)$"), "x": (r"displacement $x$", r"$p(x)$"),
@@ -96,10 +114,12 @@ def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str
             else:
                 ax.plot(g, getattr(sol, "pdf_" + q)(g), label=method, **_STYLE.get(method, {}))
         sysm = next(iter(solutions.values())).system
-        if q == "energy" and sysm.has_barrier and sysm.barrier_energy < g[-1]:
-            ax.axvline(sysm.barrier_energy, color="0.6", ls=":", lw=1, label=r"$G(\Delta)$")
-        if q == "x" and sysm.has_barrier:
-            ax.axvline(sysm.delta, color="0.6", ls=":", lw=1)
+        if q == "energy":
+            for gw, label in _wall_energies(sysm):
+                if gw < g[-1]:
+                    ax.axvline(gw, color="0.6", ls=":", lw=1, label=label)
+        if q == "x":
+            _draw_walls(ax, sysm)
         xl, yl = _LABELS[q]
         ax.set_xlabel(xl)
         ax.set_ylabel(yl)
@@ -114,6 +134,7 @@ def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str
             P = sol.pdf_joint(gx[None, :], gy[:, None])
             cs = ax.contourf(gx, gy, P, levels=14, cmap="viridis")
             fig.colorbar(cs, ax=ax, label=r"$p(x, y)$")
+            _draw_walls(ax, sol.system)
             ax.set_xlabel(r"displacement $x$")
             ax.set_ylabel(r"velocity $y$")
             ax.set_title(method, fontsize=9)

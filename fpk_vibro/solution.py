@@ -79,6 +79,28 @@ class Solution(abc.ABC):
         ``P_impact`` is absent when the system has no barrier.
         """
 
+    def mean_x(self) -> float:
+        """E[x] = ∫ x p(x) dx: zero for walls at ±Δ, not for asymmetric walls.
+
+        Composite Gauss–Legendre quadrature of :meth:`pdf_x` over the strip (a side
+        without a wall is cut where G reaches the tail energy of
+        :func:`fpk_vibro.scales.tail_energy`); methods that know it better override it.
+        """
+        from . import scales
+        lo, hi = self.system.x_bounds
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            try:
+                H = scales.tail_energy(self.system)
+            except ValueError:
+                H = scales.potential_min(self.system) + 40.0 * scales.energy_scale(self.system)
+            X = float(scales.reach(self.system, H))
+            lo, hi = max(lo, -X), min(hi, X)
+        t, w = np.polynomial.legendre.leggauss(8)
+        edges = np.linspace(lo, hi, 513)
+        half = 0.5 * np.diff(edges)[:, None]
+        x = (0.5 * (edges[1:] + edges[:-1]))[:, None] + half * t
+        return float(np.sum(half * w * x * self.pdf_x(x.ravel()).reshape(x.shape)))
+
     # -- persistence --------------------------------------------------------------
     @abc.abstractmethod
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -27,7 +27,7 @@ import skfem
 from ..model import VibroImpactSystem
 from . import forms
 from .impact import coupling_matrix, wall_matrix_1d
-from .mesh import Domain, Wall
+from .mesh import Domain, Wall, wall_restitutions
 
 __all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
            "assemble_tensor_bases", "tensor_index", "tensor_to_basis", "kron_sum",
@@ -53,22 +53,21 @@ def element_for(mesh: skfem.Mesh, degree: int) -> skfem.Element:
 def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
     """The walls of the strip covered by ``mesh`` (DESIGN §3).
 
-    Barrier sides carry ``system.r``; a truncated side without barrier is an
-    elastic wall (r = 1).  Raises ValueError if a barrier is not on the mesh edge.
+    Each wall of the system carries its own r; a truncated side without a wall is
+    an elastic wall (r = 1).  Raises ValueError if a wall is not on the mesh edge.
     """
     x0, x1 = float(mesh.p[0].min()), float(mesh.p[0].max())
     y0, y1 = float(mesh.p[1].min()), float(mesh.p[1].max())
     tol = 1e-9 * max(1.0, x1 - x0)
-    if system.barriers == "both" and abs(x0 + system.delta) > tol:
-        raise ValueError(f"mesh: its left edge x = {x0} is not the barrier -Δ = {-system.delta}")
-    if system.has_barrier and abs(x1 - system.delta) > tol:
-        raise ValueError(f"mesh: its right edge x = {x1} is not the barrier Δ = {system.delta}")
+    for side, edge, wall in (("left", x0, system.left), ("right", x1, system.right)):
+        if wall is not None and abs(edge - wall.position) > tol:
+            raise ValueError(f"mesh: its {side} edge x = {edge} is not the {side} wall "
+                             f"x = {wall.position}")
     if abs(y0 + y1) > 1e-9 * max(1.0, y1):
         raise ValueError(f"mesh: y-range [{y0}, {y1}] must be symmetric about y = 0")
     if not np.any(np.abs(mesh.p[1]) <= 1e-12 * y1):
         raise ValueError("mesh: y = 0 must be a mesh line (DESIGN §3)")
-    rl = system.r if system.barriers == "both" else 1.0
-    rr = system.r if system.has_barrier else 1.0
+    rl, rr = wall_restitutions(system)
     return Domain(x0, x1, y1, (Wall(x0, rl, -1), Wall(x1, rr, +1)))
 
 

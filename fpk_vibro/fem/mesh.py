@@ -1,9 +1,9 @@
 """Domain and meshes of the strip (DESIGN §3).
 
 The FPK of DESIGN §3 is posed on the strip ``xL < x < xR``, ``|y| < Y``.  Each end
-``x = xL`` / ``x = xR`` is a *wall* with a restitution coefficient: the barriers at
-``±Δ`` carry the system's ``r``; where the system has no barrier (unilateral or no
-barrier) the strip is truncated at ``|x| = X`` with negligible mass beyond and an
+``x = xL`` / ``x = xR`` is a *wall* with a restitution coefficient: a wall of the
+system (``system.left`` / ``system.right``) carries its own ``r``; on a side without
+a wall the strip is truncated at ``|x| = X`` with negligible mass beyond and an
 elastic wall (r = 1) is put there, which conserves mass (DESIGN §3, last line).
 
 Default truncation (used when ``y_max`` is not given): the energy H_t above which
@@ -26,7 +26,7 @@ from ..model import VibroImpactSystem
 from ..scales import TAIL_MASS
 
 __all__ = ["Wall", "Domain", "domain", "default_y_max", "axis_nodes",
-           "structured_mesh", "load_mesh", "TAIL_MASS"]
+           "structured_mesh", "load_mesh", "wall_restitutions", "TAIL_MASS"]
 
 @dataclass(frozen=True)
 class Wall:
@@ -73,9 +73,13 @@ def domain(system: VibroImpactSystem, y_max: float | None = None) -> Domain:
         lo, hi = max(lo, -X), min(hi, X)
         if y_max is None:
             y_max = math.sqrt(2.0 * (H_t - scales.potential_min(system)))
-    rl = system.r if system.barriers == "both" else 1.0
-    rr = system.r if system.has_barrier else 1.0
+    rl, rr = wall_restitutions(system)
     return Domain(lo, hi, float(y_max), (Wall(lo, rl, -1), Wall(hi, rr, +1)))
+
+
+def wall_restitutions(system: VibroImpactSystem) -> tuple[float, float]:
+    """(r_L, r_R) of the strip's ends: each wall's own r, 1 on a truncated side."""
+    return tuple(1.0 if w is None else w.r for w in (system.left, system.right))
 
 
 def axis_nodes(lo: float, hi: float, n: int, grading: float = 0.0,
