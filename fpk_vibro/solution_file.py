@@ -299,7 +299,7 @@ def _system(fields: dict) -> VibroImpactSystem:
     if missing:
         raise Corrupt(f"system misses field(s) {missing}")
     try:
-        return VibroImpactSystem(**fields)
+        return VibroImpactSystem.from_dict(fields)
     except (ValueError, TypeError) as exc:
         raise Corrupt(f"invalid system ({exc})") from None
 
