@@ -79,6 +79,16 @@ class Solution(abc.ABC):
         ``P_impact`` is absent when the system has no barrier.
         """
 
+    def impacts(self) -> dict[str, dict[str, float]]:
+        """Per wall ("left"/"right"): ``rate`` (impacts per unit time), ``mean_speed``
+        and ``mean_square_speed`` just before impact, and ``energy_rate`` (energy the
+        impacts remove per unit time); Monte Carlo adds ``*_se`` standard errors."""
+        raise NotImplementedError(f"{type(self).__name__} gives no impact statistics")
+
+    def impact_speed_pdf(self, wall: str, u: np.ndarray) -> np.ndarray:
+        """Density of the speed u ≥ 0 just before an impact on ``wall``."""
+        raise NotImplementedError(f"{type(self).__name__} gives no impact-speed density")
+
     def mean_x(self) -> float:
         """E[x] = ∫ x p(x) dx: zero for walls at ±Δ, not for asymmetric walls.
 

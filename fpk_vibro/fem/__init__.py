@@ -125,7 +125,10 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     Every option is declared once in :class:`fpk_vibro.fem.Options`.
     """
     opts, _ = Options.prepare(system, "stationary", locals())
-    return build(system, opts).stationary(opts.solver)
+    sol = build(system, opts).stationary(opts.solver)
+    # the stationary power balance (noise in = damping + impacts): a check of p_h
+    sol.info["power_balance_residual"] = sol.power_balance()["residual"]
+    return sol
 
 
 from .transient import relaxation_time, transient  # noqa: E402

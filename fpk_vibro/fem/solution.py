@@ -325,6 +325,24 @@ class FEMSolution(Solution):
             out["P_impact"] = min(max(above / (above + below), 0.0), 1.0)
         return out
 
+    def impacts(self) -> dict[str, dict[str, float]]:
+        """Per wall: impact rate, mean and mean-square speed before impact and the
+        energy the impacts remove per unit time, from the trace of p_h on the wall
+        (:mod:`fpk_vibro.fem.impacts`)."""
+        from .impacts import impact_statistics
+        return impact_statistics(self)
+
+    def impact_speed_pdf(self, wall: str, u):
+        """Density of the speed just before impact on ``wall`` ("left"/"right")."""
+        from .impacts import impact_speed_pdf
+        return impact_speed_pdf(self, wall, u)
+
+    def power_balance(self) -> dict[str, float]:
+        """Noise power in, damping and impact losses per unit time and the relative
+        residual of their balance (:mod:`fpk_vibro.fem.impacts`)."""
+        from .impacts import power_balance
+        return power_balance(self)
+
     def energy_split(self, level: float, *, positive: bool = False) -> tuple[float, float]:
         """(∫ over {H > level}, ∫ over {H ≤ level}) of p_h on the mesh.
 
