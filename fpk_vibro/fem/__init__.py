@@ -132,3 +132,4 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
 
 
 from .transient import relaxation_time, transient  # noqa: E402
+from .first_passage import first_passage  # noqa: E402

@@ -76,6 +76,8 @@ def coupling_matrix(basis: skfem.CellBasis, wall: Wall, y_max: float,
     """
     p = basis.mesh.p
     on_wall = np.abs(p[0] - wall.x) <= 1e-12 * max(1.0, abs(wall.x))
+    # a mesh whose height varies along x (e.g. fitted to a level set) ends lower here
+    y_max = min(y_max, float(np.max(np.abs(p[1, on_wall]))))
     y, ym, w = wall_quadrature(wall, p[1, on_wall], y_max, intorder)
     xw = np.full_like(y, wall.x)
     P = basis.probes(np.vstack([xw, y]))
