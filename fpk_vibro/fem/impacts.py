@@ -9,7 +9,7 @@ right wall, v < 0 at the left one).  So, with u = |v| the speed just before impa
     energy removed per unit time  P_w = ½ (1 − r_w²) ∫ u³ p(x_w, ±u) du,
     impact-speed density          f_w(u) = u p(x_w, ±u) / ν_w.
 
-Power balance (docs/theory.md, "Power balance").  Itô's formula for H = y²/2 + G(x)
+Power balance (docs/impacts.md).  Itô's formula for H = y²/2 + G(x)
 between impacts gives dH = (D1 + D2 x² − c y²) dt + y sqrt(2 D1 + 2 D2 x²) dW, and an
 impact at wall w changes H by −½ (1 − r_w²) u².  In a stationary state E[dH] = 0:
 
