@@ -295,11 +295,8 @@ class VibroImpactSystem:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> "VibroImpactSystem":
-        """Inverse of :meth:`to_dict`; a dict without walls uses the shorthand."""
-        data = dict(data)
-        if data.get("left") is not None or data.get("right") is not None:
-            for name in SHORTHAND:            # derived from the walls
-                data.pop(name, None)
+        """Inverse of :meth:`to_dict`; a dict without walls uses the shorthand (a
+        shorthand stored beside walls must agree with them)."""
         return cls(**data)
 
     def to_json(self) -> str:

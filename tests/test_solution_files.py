@@ -307,7 +307,10 @@ PER_KIND = {
         "faces_unsorted": (edit(_poke("faces", 3, 0.0)), "not strictly increasing"),
     },
     "exact": {
-        "not_gibbs_r": (edit_json("system", lambda s: s.update(r=0.5)), "Gibbs density needs"),
+        "not_gibbs_r": (edit_json("system", lambda s: s.update(
+            r=0.5, left={**s["left"], "r": 0.5}, right={**s["right"], "r": 0.5})),
+            "Gibbs density needs"),
+        "walls_disagree": (edit_json("system", lambda s: s.update(r=0.5)), "not both"),
         "not_gibbs_D2": (edit_json("system", lambda s: s.update(D2=0.01)), "Gibbs density needs"),
         "meta_list": (edit(_set("meta", np.array("[]"))), "JSON object"),
         "extra_array": (edit(_set("dofs", np.zeros(3))), "expected no arrays"),

@@ -33,9 +33,8 @@ __all__ = ["impact_statistics", "impact_speed_pdf", "power_balance"]
 
 def _wall_trace(sol, side: str) -> tuple[float, np.ndarray, np.ndarray]:
     """(x_w, speeds u_k, weights w_k) of the quadrature on the incoming half."""
-    wall = getattr(sol.system, side)
-    x_w = wall.position
     p = sol.mesh.p
+    x_w = _edge(sol, side)
     on = np.abs(p[0] - x_w) <= 1e-9 * max(1.0, abs(x_w), sol.y_max)
     nodes = np.unique(np.abs(p[1][on]))
     bp = np.unique(np.concatenate([[0.0], nodes[nodes <= sol.y_max], [sol.y_max]]))
@@ -45,9 +44,14 @@ def _wall_trace(sol, side: str) -> tuple[float, np.ndarray, np.ndarray]:
     return x_w, u, qb.dx.ravel()
 
 
+def _edge(sol, side: str) -> float:
+    """The mesh's x at the wall (the wall's position to round-off of the mesh)."""
+    return float(sol.mesh.p[0].max() if side == "right" else sol.mesh.p[0].min())
+
+
 def _trace(sol, side: str, u: np.ndarray) -> np.ndarray:
     """p(x_w, v) at speeds u on the incoming half (v = u right, v = −u left); ≥ 0."""
-    x_w = getattr(sol.system, side).position
+    x_w = _edge(sol, side)
     v = u if side == "right" else -u
     return np.maximum(sol.pdf_joint(np.full_like(u, x_w), v), 0.0)
 

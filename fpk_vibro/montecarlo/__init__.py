@@ -3,7 +3,10 @@
 Model (DESIGN §1; the paper's Eq. 1 in Itô form)::
 
     dx = y dt,   dy = −(c y + a x + b x³) dt + sqrt(2 D1 + 2 D2 x²) dW,
-    y⁺ = −r y⁻  at x = ±Δ.
+    y⁺ = −r_L y⁻  at x = x_L,   y⁺ = −r_R y⁻  at x = x_R,
+
+on the strip x_L ≤ x ≤ x_R; either wall may be absent, and both may stand on one
+side of the equilibrium (the symmetric shorthand: walls at ±Δ with one r).
 
 Scheme
 ------
@@ -21,42 +24,53 @@ change, so no Itô correction arises).  The force is evaluated once per step
 
 Impacts
 -------
-Only A moves x, and in A the motion is linear, so the crossing time of ±Δ is
-exact: s = (±Δ − x)/y.  There the physical velocity is the stored one corrected
-for the kick timing (the opening kick (h/2) F was applied in full before the
-flight): y_imp = y + (s − h/2) F(±Δ) in the first flight, y + s F(±Δ) in the
-second; y_imp → −r y_imp, the rest of the sub-step is flown with it, and the
-stored velocity is converted back so that the closing kick ends the step right.
+Only A moves x, and in A the motion is linear, so the crossing time of a wall
+x_w is exact: s = (x_w − x)/y.  There the physical velocity is the stored one
+corrected for the kick timing (the opening kick (h/2) F was applied in full before
+the flight): y_imp = y + (s − h/2) F(x_w) in the first flight, y + s F(x_w) in
+the second; y_imp → −r_w y_imp (the restitution of the wall hit), the rest of the
+sub-step is flown with it, and the stored velocity is converted back so that the
+closing kick ends the step right.
 Without this correction the energy lost at impacts is O(h) wrong and E[H] drifts
 by +0.4 % at dt = T0/120 on the paper's r = 0.92 case (+3.9 % at T0/30); with it
 the measured drift is −0.27 % at T0/30, −0.07 ± 0.07 % at T0/60 and below the
 0.05 % standard error at the default T0/120 (reference T0/240).
-A flight may reach the other barrier too (several impacts per step, in a loop).
+A flight may reach the other wall too (several impacts per step, in a loop).
 A crossing the curved path would not make (y_imp pointing away: a graze) leaves
-the path on the barrier with zero velocity and counts no impact.  Paths never
-leave the strip: after an impact the position is ±Δ ∓ r|y_imp|·(rest) and the
-loop stops on the barrier when it ends there.
+the path on the wall with zero velocity and counts no impact.  Paths never
+leave the strip: after an impact the position is x_w ∓ r_w|y_imp|·(rest) and the
+loop stops on the wall when it ends there.
+
+Each impact is counted for its wall with its speed u = |y_imp|: per wall the
+result gives the impact rate (impacts per unit time per path), the mean and
+mean-square impact speed and the energy removed per unit time,
+½ (1 − r_w²) E[u²] × rate, each with a standard error between batches
+(:meth:`MonteCarloSolution.impacts`).  For r = 1 and D2 = 0 (Gibbs density
+p ∝ exp(−c H/D1), velocity N(0, D1/c) independent of x) the rate at a wall is
+the flux p_X(x_w) E[y⁺] = p_X(x_w) sqrt(D1/c)/sqrt(2π), the mean impact speed
+sqrt(π D1/(2c)) and the mean square 2 D1/c; the tests check them.
 
 Chattering and inelastic collapse (r below ~0.163, or r = 0): within one
-free-flight sub-step a path leaving a barrier cannot return to it, so there are
-at most two impacts per step on one barrier; a sequence of impacts that would
+free-flight sub-step a path leaving a wall cannot return to it, so there are
+at most two impacts per step on one wall; a sequence of impacts that would
 accumulate in finite time (inelastic collapse) is resolved at the time-step
-resolution: the path sits on the barrier (x = ±Δ exactly) with a velocity of
+resolution: the path sits on the wall (x = x_w exactly) with a velocity of
 order h·|F| + noise until force and noise carry it away — the physical
 sticking / release motion at resolution h (where force pushes the path onto the
-barrier, e.g. a double well, it rests there).  r = 0 puts the path at rest on
-the barrier (y = 0).  In these regimes the impact *count* (``impact_rate``)
-depends on h, as the true count is infinite; densities and moments do not.  The
-number of impacts in one sub-step (only large for r ≈ 1 and |y| h ≫ Δ) is bounded
-by ``max_impacts``; if reached, the path stays on the barrier it hit last with
-its reflected velocity.  The work per step is bounded, so a run never stalls.
+wall, e.g. a double well or a preloaded wall, it rests there).  r = 0 puts the
+path at rest on the wall (y = 0).  In these regimes the impact *count*
+(``impact_rate``, per wall in ``impacts()``) depends on h, as the true count is
+infinite; densities and moments do not.  The number of impacts in one sub-step
+(only large for r ≈ 1 and |y| h ≫ x_R − x_L) is bounded by ``max_impacts``; if
+reached, the path stays on the wall it hit last with its reflected velocity.
+The work per step is bounded, so a run never stalls.
 
 Sampling: stationary statistics are time-and-ensemble averages after a burn-in
 of 6 relaxation times (6/c), one sample per path about every T0/4; transient
 statistics are ensemble averages at the requested times.  Standard errors come
 from the spread between independent batches of paths.
 
-Compute only what is asked: no impact test without barriers, no parametric term
+Compute only what is asked: no impact test without walls, no parametric term
 when D2 = 0, only requested histograms are accumulated.
 
 Parallelism and reproducibility: paths are split into ``n_batches`` blocks,

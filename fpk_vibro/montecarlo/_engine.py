@@ -47,9 +47,31 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return est, se
 
 
+def _wall_statistics(system: VibroImpactSystem, wimp: np.ndarray, time: np.ndarray
+                     ) -> dict[str, dict[str, float]]:
+    """Per wall: impacts, rate, mean and mean-square speed before impact and energy
+    removed per unit time, each with its standard error between batches.
+
+    ``wimp[b, side]`` holds batch b's count, Σu and Σu² (:mod:`._flight`), ``time``
+    the path-time each batch simulated.
+    """
+    out = {}
+    for side, wall in system.walls:
+        n, su, sq = (wimp[:, K.LEFT if side == "left" else K.RIGHT, c]
+                     for c in (K.W_N, K.W_U, K.W_Q))
+        d = {"count": int(n.sum())}
+        for key, num, den in (("rate", n, time), ("mean_speed", su, n),
+                              ("mean_square_speed", sq, n),
+                              ("energy_rate", 0.5 * (1.0 - wall.r ** 2) * sq, time)):
+            est, se = _ratio(num, den)
+            d[key], d[f"{key}_se"] = float(est), float(se)
+        out[side] = d
+    return out
+
+
 def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
-            imp: np.ndarray, xext: np.ndarray, dt: float, meta: dict[str, Any]
-            ) -> MonteCarloSolution:
+            imp: np.ndarray, xext: np.ndarray, dt: float, meta: dict[str, Any],
+            wimp: np.ndarray) -> MonteCarloSolution:
     n_b = mom[:, K.M_N]
     arrays: dict[str, np.ndarray] = dict(hist.edges)
     cols = [K.M_H, K.M_X2, K.M_Y2, K.M_X4, K.M_Y4, K.M_PIMP]
@@ -67,10 +89,13 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
         d, s = _ratio(counts / vol, n_b)
         arrays[f"density_{q}"], arrays[f"se_{q}"] = d, s
     rate, rate_se = _ratio(imp[:, 0], imp[:, 1] * dt)
+    mean_x, mean_x_se = _ratio(mom[:, K.M_X], n_b)
     total = float(n_b.sum())
     meta = dict(meta)
     meta.update(
         impact_rate=float(rate), impact_rate_se=float(rate_se), n_samples=int(total),
+        impacts=_wall_statistics(system, wimp, imp[:, 1] * dt),
+        mean_x=float(mean_x), mean_x_se=float(mean_x_se),
         overflow={q: float(mom[:, c].sum() / total) if total else 0.0
                   for q, c in (("energy", K.M_OVH), ("x", K.M_OVX), ("y", K.M_OVY),
                                ("joint", K.M_OVJ)) if q in meta["quantities"]},
@@ -81,7 +106,7 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
                 hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
-                frac=None, threads=None):
+                frac=None, threads=None, walls=None):
     """Advance in chunks of ~CHUNK_PATH_STEPS path-steps; returns steps done.
 
     ``stop()`` (checked after every chunk) ends the loop early when True;
@@ -94,7 +119,7 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
     while done < n_steps:
         n = min(chunk, n_steps - done)
         K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
-                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads)
+                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -146,7 +171,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     bins : int or dict, default 100
         n → n bins for H, x, y and n//2 × n//2 for the joint histogram; or a dict
         ``{quantity: count or equally spaced edges}`` (joint: a pair).  Default
-        ranges: x over the strip (or ±A(H_max) on a side without barrier), H up to
+        ranges: x over the strip x_L..x_R, a side without wall cut at the reach of
+        H_max (where G = H_max), H up to
         H_max = max(1.5 × largest, 10 × mean) burned-in energy, y to ±sqrt(2 H_max).
     n_batches : int, default 32
     target_rse : float, default 0.005
@@ -168,7 +194,9 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     -------
     MonteCarloSolution
         With ``partial = True`` if interrupted by Ctrl-C during sampling (holds
-        the samples taken so far).
+        the samples taken so far).  Per-wall impact statistics over the sampled
+        time in :meth:`~MonteCarloSolution.impacts` (also ``info["impacts"]``),
+        E[x] in :meth:`~MonteCarloSolution.mean_x`.
 
     Raises
     ------
@@ -191,11 +219,12 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     rng = S.rng_states(children[:n_batches])
     gen = np.random.default_rng(children[n_batches])
     starts = S.block_starts(n_paths, n_batches)
-    xs = np.zeros(n_paths)
+    xs = np.full(n_paths, S.initial_x(system))
     ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
     p, ip = S.step_params(system, dt, max_impacts)
     mom = np.zeros((n_batches, K.NM))
     imp = np.zeros((n_batches, 2))
+    wimp = np.zeros((n_batches, 2, K.NW))
     xext = np.tile([np.inf, -np.inf], (n_batches, 1))
     none = S.Histograms(system, (), bins, n_batches, 1.0)
     prog = S.Progress(progress, "stationary")
@@ -212,6 +241,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     hist = S.Histograms(system, quantities, bins, n_batches, H_max)
     hist.fill_params(p)
     imp[:] = 0.0
+    wimp[:] = 0.0
     adaptive = t_sample is None
     n_samp = math.ceil((max_t_sample if adaptive else t_sample) / dt - 1e-9)
     n_min = math.ceil(1.0 / (lam * dt)) if adaptive else n_samp
@@ -237,7 +267,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     try:
         _run_chunks(xs, ys, rng, starts, n_samp, 0, sample_every, p, ip, mom, imp, xext,
                     hist, n_paths, prog, "sampling", (0.1, 1.0), stop=reached,
-                    frac=fraction, threads=threads)
+                    frac=fraction, threads=threads, walls=wimp)
     except KeyboardInterrupt:
         partial = True
         print("\n[montecarlo] interrupted: returning the samples taken so far "
@@ -251,7 +281,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                 sample_every=sample_every, quantities=list(quantities),
                 mode=system.barriers, target_rse=target_rse if adaptive else None,
                 spawn_key=list(ss.spawn_key))
-    return _reduce(system, hist, mom, imp, xext, dt, meta)
+    return _reduce(system, hist, mom, imp, xext, dt, meta, wimp)
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
@@ -285,7 +315,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     -------
     TransientRun
         A list with one :class:`MonteCarloSolution` per time (``time``,
-        ``impact_rate`` over the interval ending there); ``partial`` True and
+        ``impact_rate`` and per-wall :meth:`~MonteCarloSolution.impacts` over the
+        interval ending there); ``partial`` True and
         fewer entries if interrupted by Ctrl-C.
     """
     tarr = parse_times(times, "montecarlo.transient")
@@ -315,11 +346,12 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             h = (t - t_now) / n if n > 0 else dt
             p, ip = S.step_params(system, h, max_impacts)
             imp = np.zeros((n_batches, 2))
+            wimp = np.zeros((n_batches, 2, K.NW))
             mom = np.zeros((n_batches, K.NM))
             xext = np.tile([np.inf, -np.inf], (n_batches, 1))
             frac = (t_now / tarr[-1], t / tarr[-1]) if tarr[-1] > 0 else (0.0, 1.0)
             _run_chunks(xs, ys, rng, starts, n, 0, 0, p, ip, mom, imp, xext, none,
-                        n_paths, prog, f"t={t:g}", frac, threads=threads)
+                        n_paths, prog, f"t={t:g}", frac, threads=threads, walls=wimp)
             t_now = float(t)
             H = system.energy(xs, ys)
             H_max = float(H.max())
@@ -331,7 +363,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
                         time=t_now, seed_entropy=ss.entropy, partial=False,
                         sample_every=0, quantities=list(quantities), mode=system.barriers,
                         initial=init.describe(), spawn_key=list(ss.spawn_key))
-            out.append(_reduce(system, hist, mom, imp, xext, h, meta))
+            out.append(_reduce(system, hist, mom, imp, xext, h, meta, wimp))
     except KeyboardInterrupt:
         out.partial = True
         print(f"\n[montecarlo] interrupted: returning {len(out)} of {tarr.size} times "

@@ -1,4 +1,4 @@
-"""Compiled (numba) kernels of the Monte Carlo engine (DESIGN §4).
+"""Compiled (numba) kernels of the Monte Carlo engine.
 
 Random numbers (:mod:`._rng`): one xoshiro256+ stream per block of paths
 (seeded from ``numpy.random.SeedSequence.spawn``), standard normals by the
@@ -10,9 +10,9 @@ depend on it.  The blocks are shared out to a thread pool
 The step (BAOAB splitting, see :mod:`fpk_vibro.montecarlo` for the argument)::
 
     B  y += (h/2) F(x)              F(x) = −(a x + b x³)
-    A  x += (h/2) y                 free flight, impacts at x = ±Δ located exactly
+    A  x += (h/2) y                 free flight, impacts at x_L, x_R located exactly
     O  y ← e^{−c h} y + sqrt(D(x)(1 − e^{−2ch})/c) ξ     exact OU at fixed x
-    A  x += (h/2) y                 (as above)
+    A  x += (h/2) y                 (as above; :mod:`._flight`)
     B  y += (h/2) F(x)
 
 Between steps the kernel holds v = y − (h/2) F(x) instead of y, so that the
@@ -20,12 +20,14 @@ closing B of one step and the opening B of the next are a single kick
 v + h F(x) (one force evaluation per step); y is restored for sampling and on
 return.  Per step, a chunk of paths draws its normals, then one branch-free
 loop (:func:`_smooth_sweep`, which LLVM compiles to AVX2/SSE code) advances
-every path as if no barrier were hit and flags the paths whose flights left the
+every path as if no wall were hit and flags the paths whose flights left the
 strip; only those (~2 % of path-steps in the paper's case) are redone by the
-scalar step with exact impact handling (:func:`_step`).
+scalar step with exact impact handling (:func:`_step_walls`).
 
 ``p`` (float64 parameter vector) and ``ip`` (int64 flag vector) are laid out by
-the ``P_*`` / ``I_*`` indices below.
+the ``P_*`` / ``I_*`` indices below.  A side without a wall has ``P_LO`` = −inf
+(``P_HI`` = +inf), so no flight crosses it: the kernel needs no case for which
+walls exist (``I_MODE`` only records it).
 """
 from __future__ import annotations
 
@@ -37,21 +39,23 @@ from numba import njit, types
 from numba.cpython.unsafe.numbers import trailing_zeros
 from numba.extending import intrinsic
 
+from ._flight import LEFT, NW, RIGHT, W_N, W_Q, W_U, _flight
 from ._rng import FASTMATH, _floor_block, _normal
 from ._threads import run_blocks
 
-# float parameters
+# float parameters (P_LO, P_HI: the walls x_L, x_R; P_RL, P_R: their restitutions)
 P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD = range(11)
 P_H0, P_HIW, P_X0, P_XIW, P_Y0, P_YIW, P_JX0, P_JXIW, P_JY0, P_JYIW = range(11, 21)
-P_FLO, P_FHI = 21, 22
-NP = 23
+P_FLO, P_FHI, P_RL = 21, 22, 23
+NP = 24
 # integer flags
 I_MODE, I_D2, I_MAXK = range(3)
 NI = 3
 # moment accumulator columns
-M_N, M_H, M_X2, M_Y2, M_X4, M_Y4, M_PIMP, M_OVH, M_OVX, M_OVY, M_OVJ = range(11)
-NM = 11
-MODE_NONE, MODE_RIGHT, MODE_BOTH = 0, 1, 2
+M_N, M_H, M_X2, M_Y2, M_X4, M_Y4, M_PIMP, M_OVH, M_OVX, M_OVY, M_OVJ, M_X = range(12)
+NM = 12
+# which walls exist (I_MODE; the kernel itself does not need it)
+MODE_NONE, MODE_RIGHT, MODE_BOTH, MODE_LEFT = 0, 1, 2, 3
 
 
 @intrinsic
@@ -69,68 +73,6 @@ def _fma(typingctx, a, b, c):
         fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
         return builder.call(fn, args)
     return sig, codegen
-
-
-@njit(cache=True, fastmath=FASTMATH)
-def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, r, mode, maxk):
-    """The impact part of :func:`_flight` (not inlined: rare)."""
-    n = 0
-    s = 0.0
-    v = y
-    corr = 0.0
-    while True:
-        if xn > hi:
-            s = min(s + (hi - x) / v, tau)         # v > 0 here
-            off = s + off0
-            vi = v + corr + off * fhi
-            x = hi
-            if vi > 0.0:
-                v = -r * vi
-                n += 1
-            else:
-                v = 0.0
-            corr = -off * fhi
-        elif mode == MODE_BOTH and xn < lo:
-            s = min(s + (lo - x) / v, tau)         # v < 0 here
-            off = s + off0
-            vi = v + corr + off * flo
-            x = lo
-            if vi < 0.0:
-                v = -r * vi
-                n += 1
-            else:
-                v = 0.0
-            corr = -off * flo
-        else:
-            return xn, v + corr, n
-        if n >= maxk:
-            return x, v + corr, n
-        xn = x + (tau - s) * v
-
-
-@njit(cache=True, fastmath=FASTMATH, inline="always")
-def _flight(x, y, tau, off0, lo, hi, flo, fhi, r, mode, maxk, lo_t, hi_t):
-    """Free flight x += tau*y with impacts located exactly at x = lo / hi.
-
-    ``y`` is the splitting's stored velocity, which already holds the whole
-    opening kick (h/2) F.  At an impact at local time s the physical velocity is
-    y_imp = y + (s + off0) F_b (``off0`` = −h/2 in the first flight, 0 in the
-    second; F_b the force at the barrier); it is reflected, v = −r y_imp, the
-    rest of the flight uses v, and the stored velocity returned is
-    v − (s + off0) F_b, so that the closing kick completes the step correctly
-    (the kick timing error at an impact is O(h²), not O(h)).  If y_imp does not
-    point into the barrier (a graze the true curved path would not make), the
-    path touches the barrier with v = 0 and no impact is counted.
-
-    Returns (x, stored y, number of impacts).  At most ``maxk`` impacts per call;
-    if the bound is reached the path stays on the barrier it hit last.
-    """
-    xn = x + tau * y
-    # one test: lo_t = lo only with a left barrier, hi_t = hi only with a right
-    # one (else ∓inf); a NaN goes to _impacts, which returns it unchanged
-    if (xn >= lo_t) & (xn <= hi_t):
-        return xn, y, 0
-    return _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, r, mode, maxk)
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
@@ -153,8 +95,8 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
     """Add the states x = xv[:n], y = vv[:n] + kick F(x) (``kick`` = h/2 for the
     kick-merged state of :func:`_smooth_sweep`, 0 for plain states) as samples of
     block b: the requested
-    histograms, the moment sums (``mom[b]``, overflow counts included) and the
-    range of x (``xext[b]``).
+    histograms, the moment sums (``mom[b]``, overflow counts and Σx included) and
+    the range of x (``xext[b]``).
 
     Called once per sweep, not per path, and written out without array-taking
     helpers: an inlined helper receiving arrays costs numba a reference-count
@@ -174,6 +116,7 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
     cx4 = 0.0
     cy4 = 0.0
     cP = 0.0
+    cx = 0.0
     oH = 0.0
     ox = 0.0
     oy = 0.0
@@ -217,6 +160,7 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
         cx4 += x2 * x2
         cy4 += y2 * y2
         cP += 1.0 if H > gd else 0.0
+        cx += x
         xmin = min(xmin, x)
         xmax = max(xmax, x)
     mom[b, M_N] += n
@@ -230,23 +174,42 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
     mom[b, M_OVX] += ox
     mom[b, M_OVY] += oy
     mom[b, M_OVJ] += oj
+    mom[b, M_X] += cx
     xext[b, 0] = xmin
     xext[b, 1] = xmax
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _step(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, r, mode,
-          has_d2, maxk, lo_t, hi_t):
-    """One BAOAB step (module docstring); f = F(x) on entry and on return."""
+def _step_walls(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
+                has_d2, maxk, lo_t, hi_t):
+    """One BAOAB step (module docstring); f = F(x) on entry and on return.
+
+    Returns (x, y, f) and the wall statistics of the step as :func:`._flight._flight`
+    gives them (impacts left, right, Σu left, right, Σu² left, right).
+    """
     y += hh * f
-    x, y, m1 = _flight(x, y, hh, -hh, lo, hi, flo, fhi, r, mode, maxk, lo_t, hi_t)
+    x, y, nl, nr, ul, ur, ql, qr = _flight(x, y, hh, -hh, lo, hi, flo, fhi, rlo, rhi,
+                                           maxk, lo_t, hi_t)
     if has_d2:
         y = ec * y + math.sqrt(d1s2 + d2s2 * x * x) * z
     else:
         y = ec * y + sd0 * z
-    x, y, m2 = _flight(x, y, hh, 0.0, lo, hi, flo, fhi, r, mode, maxk, lo_t, hi_t)
+    x, y, nl2, nr2, ul2, ur2, ql2, qr2 = _flight(x, y, hh, 0.0, lo, hi, flo, fhi, rlo, rhi,
+                                                 maxk, lo_t, hi_t)
     f = -(a + bcub * x * x) * x
-    return x, y + hh * f, f, m1 + m2
+    return x, y + hh * f, f, nl + nl2, nr + nr2, ul + ul2, ur + ur2, ql + ql2, qr + qr2
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def _step(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, r, mode,
+          has_d2, maxk, lo_t, hi_t):
+    """:func:`_step_walls` with one restitution ``r`` on both walls, returning (x, y,
+    f, impacts): the plain scalar scheme the vectorised sweep is checked against
+    (``mode`` is not needed: an absent wall is at ∓inf)."""
+    x, y, f, nl, nr, _, _, _, _ = _step_walls(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub,
+                                              lo, hi, flo, fhi, r, r, has_d2, maxk, lo_t,
+                                              hi_t)
+    return x, y, f, nl + nr
 
 
 # paths advanced together in a block: the vectorised sweep's length, at most 64
@@ -296,15 +259,16 @@ def _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-               mom, imp, xext, hH, hx, hy, hj):
+               mom, imp, xext, hH, hx, hy, hj, wimp):
     """Block b of :func:`advance` (compiled without the GIL; :func:`advance`
     runs the blocks on a thread pool).
 
     The block's paths are advanced CHUNK at a time; each step draws the chunk's
     normals from the block's stream (in path order), advances every path by the
     vectorised :func:`_smooth_sweep`, then redoes the few paths it flagged
-    (a barrier crossed, ~2 % of path-steps in the paper's case) with the scalar
-    :func:`_step`.
+    (a wall crossed, ~2 % of path-steps in the paper's case) with the scalar
+    :func:`_step_walls`.  Impact statistics are summed in locals and added to
+    ``imp[b]`` and ``wimp[b]`` once, at the end.
     """
     a = p[P_A]
     bcub = p[P_B]
@@ -315,19 +279,24 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     d2s2 = p[P_D2S2]
     lo = p[P_LO]
     hi = p[P_HI]
-    r = p[P_R]
+    rlo = p[P_RL]
+    rhi = p[P_R]
     flo = p[P_FLO]
     fhi = p[P_FHI]
-    mode = ip[I_MODE]
     has_d2 = ip[I_D2] != 0
     maxk = ip[I_MAXK]
-    lo_t = lo if mode == MODE_BOTH else -math.inf
-    hi_t = hi if mode != MODE_NONE else math.inf
+    lo_t = lo                       # ∓inf where there is no wall
+    hi_t = hi
     s0 = rng[b, 0]
     s1 = rng[b, 1]
     s2 = rng[b, 2]
     s3 = rng[b, 3]
-    nimp = 0
+    nl = 0
+    nr = 0
+    ul = 0.0
+    ur = 0.0
+    ql = 0.0
+    qr = 0.0
     ha = 2.0 * hh * a
     hb = 2.0 * hh * bcub
     xa = np.empty(CHUNK)
@@ -352,22 +321,32 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
             while bad2 != 0:                # an impact in the second flight only
                 j = trailing_zeros(bad2)
                 bad2 &= bad2 - 1
-                x, y, m = _flight(xm[j], vb[j], hh, 0.0, lo, hi, flo, fhi, r, mode, maxk,
-                                  lo_t, hi_t)
+                x, y, ml, mr, sl, sr, tl, tr = _flight(xm[j], vb[j], hh, 0.0, lo, hi, flo,
+                                                       fhi, rlo, rhi, maxk, lo_t, hi_t)
                 xb[j] = x
                 vb[j] = y
-                nimp += m
+                nl += ml
+                nr += mr
+                ul += sl
+                ur += sr
+                ql += tl
+                qr += tr
             while bad1 != 0:                # in the first flight (or a NaN): whole step
                 j = trailing_zeros(bad1)
                 bad1 &= bad1 - 1
                 x = xa[j]
                 f = -(a + bcub * x * x) * x
-                x, y, f, m = _step(x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2,
-                                   a, bcub, lo, hi, flo, fhi, r, mode, has_d2, maxk,
-                                   lo_t, hi_t)
+                x, y, f, ml, mr, sl, sr, tl, tr = _step_walls(
+                    x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi,
+                    flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t)
                 xb[j] = x
                 vb[j] = y - hh * f
-                nimp += m
+                nl += ml
+                nr += mr
+                ul += sl
+                ur += sr
+                ql += tl
+                qr += tr
             xa, xb = xb, xa
             va, vb = vb, va
             cnt -= 1
@@ -378,8 +357,14 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
             x = xa[j]
             xs[i0 + j] = x
             ys[i0 + j] = va[j] - hh * (a + bcub * x * x) * x      # y = v + (h/2) F(x)
-    imp[b, 0] += nimp
+    imp[b, 0] += nl + nr
     imp[b, 1] += (starts[b + 1] - starts[b]) * float(n_steps)
+    wimp[b, LEFT, W_N] += nl
+    wimp[b, RIGHT, W_N] += nr
+    wimp[b, LEFT, W_U] += ul
+    wimp[b, RIGHT, W_U] += ur
+    wimp[b, LEFT, W_Q] += ql
+    wimp[b, RIGHT, W_Q] += qr
     rng[b, 0] = s0
     rng[b, 1] = s1
     rng[b, 2] = s2
@@ -387,7 +372,7 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
 
 
 def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-            mom, imp, xext, hH, hx, hy, hj, threads=None):
+            mom, imp, xext, hH, hx, hy, hj, threads=None, walls=None):
     """Advance every path by ``n_steps`` steps (in place), sampling if asked.
 
     Blocks run on ``threads`` workers (:func:`run_blocks`).  Within a block,
@@ -410,7 +395,7 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     mom : float64[n_blocks, NM]
         Per-block sums of the sampled moments (``M_*`` columns).
     imp : float64[n_blocks, 2]
-        Per-block impact count and path-steps advanced.
+        Per-block impact count (both walls) and path-steps advanced.
     xext : float64[n_blocks, 2]
         Per-block min and max of x over the samples taken.
     hH, hx, hy, hj : float64 arrays
@@ -418,10 +403,16 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     threads : int, optional
         Worker threads (default :func:`numba.get_num_threads`, i.e. all cores
         unless changed); the result does not depend on it.
+    walls : float64[n_blocks, 2, NW], optional
+        Per-block wall statistics, added to: ``walls[b, side, W_N]`` impacts,
+        ``W_U`` Σ u, ``W_Q`` Σ u² (u the speed before impact; side 0 left, 1
+        right).  Default: not kept.
     """
+    if walls is None:
+        walls = np.zeros((rng.shape[0], 2, NW))
     run_blocks(_run_block, rng.shape[0], (xs, ys, rng, starts, n_steps, step0,
                                           sample_every, p, ip, mom, imp, xext,
-                                          hH, hx, hy, hj), threads)
+                                          hH, hx, hy, hj, walls), threads)
 
 
 @njit(cache=True, fastmath=FASTMATH)

@@ -12,7 +12,7 @@ import numpy as np
 from .. import _checks
 from ..model import VibroImpactSystem
 from ..scales import (amplitude_scale, energy_scale, period, potential_min,  # noqa: F401
-                      relaxation_rate)
+                      reach, relaxation_rate)
 from . import _kernel as K
 from .solution import QUANTITIES
 
@@ -166,16 +166,39 @@ def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
     s2 = -math.expm1(-2.0 * c * dt) / c if c > 0 else 2.0 * dt   # Var of OU / D
     p[K.P_SD0] = math.sqrt(system.D1 * s2)
     p[K.P_D1S2], p[K.P_D2S2] = system.D1 * s2, system.D2 * s2
-    lo, hi = system.x_bounds
-    p[K.P_LO], p[K.P_HI], p[K.P_R] = lo, hi, system.r
+    lo, hi = system.x_bounds                  # ∓inf where there is no wall
+    p[K.P_LO], p[K.P_HI] = lo, hi
+    p[K.P_RL] = system.left.r if system.left is not None else 1.0
+    p[K.P_R] = system.right.r if system.right is not None else 1.0
     p[K.P_GD] = system.barrier_energy
     for i, xb in ((K.P_FLO, lo), (K.P_FHI, hi)):
         p[i] = -(system.a + system.b * xb * xb) * xb if math.isfinite(xb) else 0.0
-    ip[K.I_MODE] = {"none": K.MODE_NONE, "right": K.MODE_RIGHT, "both": K.MODE_BOTH}[
-        system.barriers]
+    ip[K.I_MODE] = {"none": K.MODE_NONE, "right": K.MODE_RIGHT, "both": K.MODE_BOTH,
+                    "left": K.MODE_LEFT}[system.barriers]
     ip[K.I_D2] = 1 if system.D2 > 0 else 0
     ip[K.I_MAXK] = max_impacts
     return p, ip
+
+
+def initial_x(system: VibroImpactSystem) -> float:
+    """Where the stationary run starts its paths: x = 0, or the nearest point of the
+    strip when 0 is not on it (a preloaded wall)."""
+    lo, hi = system.x_bounds
+    return min(max(0.0, lo), hi)
+
+
+def x_range(system: VibroImpactSystem, H_max: float) -> tuple[float, float]:
+    """The default x range of the histograms: the strip (x_L, x_R) with two walls;
+    with a side open, the strip cut at ∓X, X = :func:`fpk_vibro.scales.reach` at
+    ``H_max`` (the largest |x| a state of energy ≤ H_max reaches)."""
+    lo, hi = system.x_bounds
+    if system.left is not None and system.right is not None:
+        return lo, hi
+    X = max(float(reach(system, H_max)), 1e-12)
+    xlo, xhi = max(lo, -X), min(hi, X)
+    if xhi <= xlo:
+        xhi = xlo + 1e-12
+    return xlo, xhi
 
 
 class Histograms:
@@ -183,16 +206,9 @@ class Histograms:
 
     def __init__(self, system: VibroImpactSystem, quantities: tuple[str, ...],
                  bins: dict[str, Any], n_blocks: int, H_max: float) -> None:
-        lo, hi = system.x_bounds
         gmin = potential_min(system)
         H_max = max(H_max, gmin + 1e-12)
-        if system.barriers == "both":
-            xlo, xhi = lo, hi
-        else:                       # |x| <= A(H) for every state with energy H
-            X = max(float(system.amplitude(max(H_max, 0.0))), 1e-12)
-            xlo, xhi = -X, min(hi, X)
-            if xhi <= xlo:
-                xhi = xlo + 1e-12
+        xlo, xhi = x_range(system, H_max)
         Y = math.sqrt(2.0 * (H_max - gmin))
 
         def make(spec, v0, v1):

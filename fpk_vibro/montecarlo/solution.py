@@ -14,6 +14,8 @@ QUANTITIES = ("energy", "x", "y", "joint")
 _MOMENT_NAMES = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
 _HISTS = {"energy": ("edges_H",), "x": ("edges_x",), "y": ("edges_y",),
           "joint": ("edges_jx", "edges_jy")}
+_WALL_KEYS = ("count", "rate", "rate_se", "mean_speed", "mean_speed_se", "mean_square_speed",
+              "mean_square_speed_se", "energy_rate", "energy_rate_se")
 _META_KEYS = ("dt", "n_paths", "n_batches", "t_sample", "t_burn", "time", "seed_entropy",
               "partial", "impact_rate", "impact_rate_se", "n_samples", "sample_every",
               "quantities", "mode", "overflow", "x_seen", "scheme")
@@ -51,8 +53,13 @@ class MonteCarloSolution(Solution):
     time : float or None
         Time of a transient snapshot; ``None`` for stationary results.
     impact_rate, impact_rate_se : float
-        Impacts per unit time per path (stationary: over the sampled time;
-        transient: over the interval ending at ``time``) and its standard error.
+        Impacts per unit time per path on all walls together (stationary: over the
+        sampled time; transient: over the interval ending at ``time``) and its
+        standard error; per wall see :meth:`impacts`.
+    info : dict
+        ``"impacts"`` (:meth:`impacts`), ``"mean_x"`` and ``"mean_x_se"``
+        (:meth:`mean_x`); only what the result holds (files written before
+        per-wall counts hold neither).
     n_samples : int
         Number of (x, y) samples accumulated (paths × sampling instants).
     partial : bool
@@ -130,19 +137,63 @@ class MonteCarloSolution(Solution):
         dens = self._arrays["density_joint"]
         return np.where(inx & iny & self.system.in_strip(x), dens[kx, ky], 0.0)
 
-    # -- moments ------------------------------------------------------------------
+    # -- moments and impacts ------------------------------------------------------
     def _moment_dict(self, key: str) -> dict[str, float]:
         vals = self._arrays[key]
         names = _MOMENT_NAMES if self.system.has_barrier else _MOMENT_NAMES[:-1]
         return {n: float(vals[i]) for i, n in enumerate(names)}
 
     def moments(self) -> dict[str, float]:
-        """E[H], E[x²], E[y²], E[x⁴], E[y⁴], P_impact = P(H > G(Δ)) (if barrier)."""
+        """E[H], E[x²], E[y²], E[x⁴], E[y⁴], P_impact = P(H > min_w G(x_w)) (with walls);
+        E[x] is :meth:`mean_x`."""
         return self._moment_dict("moments")
 
     def moments_se(self) -> dict[str, float]:
         """Standard errors of :meth:`moments` (from independent batches of paths)."""
         return self._moment_dict("moments_se")
+
+    def mean_x(self) -> float:
+        """E[x], the average of the sampled x (not of the histogram); from the
+        histogram by quadrature for files that predate it."""
+        if "mean_x" in self._meta:
+            return float(self._meta["mean_x"])
+        return super().mean_x()
+
+    def mean_x_se(self) -> float:
+        """Standard error of :meth:`mean_x` (NaN for files that predate it)."""
+        return float(self._meta.get("mean_x_se", np.nan))
+
+    def impacts(self) -> dict[str, dict[str, float]]:
+        """Impact statistics of each wall, over the sampled time (stationary) or the
+        interval ending at ``time`` (transient).
+
+        Returns
+        -------
+        dict
+            ``{"left": {...}, "right": {...}}`` for the walls that exist, each with
+            ``count`` (impacts of all paths), ``rate`` (impacts per unit time per
+            path), ``mean_speed`` and ``mean_square_speed`` (of the speed u = |y|
+            just before impact), ``energy_rate`` (½ (1 − r²) E[u²] × rate: energy
+            the wall removes per unit time), and a standard error ``*_se`` of each
+            (between batches; NaN with no impact).  Below r ≈ 0.16 the count
+            includes the chattering sequences resolved at the time step, so it
+            depends on dt there.
+
+        Raises
+        ------
+        ValueError
+            For a file written before per-wall impacts were recorded.
+        """
+        if "impacts" not in self._meta:
+            raise ValueError("MonteCarloSolution: no per-wall impact statistics in this "
+                             "result (written by an older version); rerun it")
+        return {side: dict(d) for side, d in self._meta["impacts"].items()}
+
+    @property
+    def info(self) -> dict[str, Any]:
+        """Per-wall impacts and E[x] with its standard error (class docstring)."""
+        return {k: (self.impacts() if k == "impacts" else self._meta[k])
+                for k in ("impacts", "mean_x", "mean_x_se") if k in self._meta}
 
     # -- persistence --------------------------------------------------------------
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -159,7 +210,12 @@ class MonteCarloSolution(Solution):
                            and all(q in QUANTITIES for q in v)),
         "mode": Rule.choice(*BARRIER_KINDS),
         "overflow": Rule.mapping(Rule.number(0.0, hi=1.0)),
-        "x_seen": Rule.listing(Rule.number(nan=True), 2), "scheme": Rule.TEXT}
+        "x_seen": Rule.listing(Rule.number(nan=True), 2), "scheme": Rule.TEXT,
+        "impacts": Rule.mapping(Rule.mapping(Rule.number(nan=True), needs=_WALL_KEYS,
+                                             keys=_WALL_KEYS),
+                                keys=("left", "right")).optional(),
+        "mean_x": Rule.number(nan=True).optional(),
+        "mean_x_se": Rule.number(0.0, nan=True).optional()}
 
     @classmethod
     def _array_schema(cls, meta):
@@ -173,6 +229,18 @@ class MonteCarloSolution(Solution):
             out[f"density_{q}"] = Stored(bins, nonneg=True)
             out[f"se_{q}"] = Stored(bins, nonneg=True, nan_ok=True)
         return out
+
+    @classmethod
+    def _check_state(cls, system: VibroImpactSystem, meta: dict[str, Any],
+                     arrays: dict[str, np.ndarray]) -> None:
+        """``mode`` and the sides of ``impacts`` must be the stored system's walls."""
+        if meta["mode"] != system.barriers:
+            raise ValueError(f"meta['mode'] must be {system.barriers!r} (the walls of the "
+                             f"stored system); got {meta['mode']!r}")
+        sides = sorted(side for side, _ in system.walls)
+        if "impacts" in meta and sorted(meta["impacts"]) != sides:
+            raise ValueError(f"meta['impacts'] must have the keys {sides} (the walls of the "
+                             f"stored system); got {sorted(meta['impacts'])}")
 
     @classmethod
     def _from_state(cls, system: VibroImpactSystem, meta: dict[str, Any],
