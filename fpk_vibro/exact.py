@@ -6,7 +6,11 @@ For r = 1 and D2 = 0 (or no barrier and D2 = 0) the Gibbs density
 
 on the strip solves the stationary FPK and satisfies the impact condition
 p(Δ, −v) = p(Δ, v) (DESIGN §3, §5).  It is the reference every method is checked
-against.  It holds for any a, b (softening, double well) allowed by the model.
+against.  It holds for any a, b (softening, double well) allowed by the model and
+for any walls with r = 1 each (asymmetric, both on one side of x = 0, at or beyond
+the equilibrium): the density is the same expression restricted to the strip, so
+p(y) stays Gaussian while p(x) ∝ exp(−β G(x)) is cut by the walls and
+E[x] = ∫ x exp(−β G) dx / ∫ exp(−β G) dx ≠ 0 unless the walls are at ±Δ.
 """
 from __future__ import annotations
 
@@ -18,7 +22,8 @@ from scipy import integrate, special
 
 from ._checks import InputError
 from .model import VibroImpactSystem, check_system
-from .orbits import orbit_nodes, require_single_well
+from .orbits import energy_floor, orbit_nodes, require_single_well
+from .scales import potential_min
 from .solution import Solution
 
 __all__ = ["GibbsSolution", "gibbs"]
@@ -44,7 +49,7 @@ class GibbsSolution(Solution):
         lo, hi = system.x_bounds
         # wells of G inside the strip, where the integrand peaks
         wells = [w for w in self._wells() if lo < w < hi]
-        self._g0 = min([0.0] + [float(system.potential(w)) for w in wells])
+        self._g0 = potential_min(system)            # min G over the strip
         self._bounds = (lo, hi)
         self._points = sorted(set(wells + [0.0]))
         self.Zx = self._x_integral(lambda x: np.ones_like(x))
@@ -83,8 +88,8 @@ class GibbsSolution(Solution):
         H = np.asarray(H, dtype=float)
         try:
             require_single_well(self.system, "the vectorised period")
-            T = orbit_nodes(self.system, np.maximum(H, 0.0)).period
-            T = np.where(H > 0, T, 0.0)
+            T = orbit_nodes(self.system, np.maximum(H, energy_floor(self.system))).period
+            T = np.where(H > self._g0, T, 0.0)
         except ValueError:
             T = np.vectorize(self._period_general, otypes=[float])(H)
         with np.errstate(over="ignore"):
@@ -138,10 +143,18 @@ class GibbsSolution(Solution):
         out = {"E_H": 0.5 / self.beta + EG, "E_x2": Ex2, "E_y2": 1.0 / self.beta,
                "E_x4": Ex4, "E_y4": 3.0 / self.beta ** 2}
         if self.system.has_barrier:
+            # P(H > min G(x_w)): the probability of being on an orbit that hits a wall
             Gb = self.system.barrier_energy
             out["P_impact"] = self._x_integral(
                 lambda x: special.erfc(np.sqrt(self.beta * np.maximum(Gb - G(x), 0.0)))) / self.Zx
         return out
+
+    def mean_x(self) -> float:
+        """E[x] = ∫ x exp(−β G) dx / ∫ exp(−β G) dx over the strip (adaptive quadrature);
+        exactly 0 for walls at ±Δ or none."""
+        if self.system.symmetric:
+            return 0.0
+        return self._x_integral(lambda x: x) / self.Zx
 
     # -- persistence --------------------------------------------------------------
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -158,11 +171,15 @@ class GibbsSolution(Solution):
 
 
 def require_gibbs(system: VibroImpactSystem) -> None:
-    """Raise :class:`~fpk_vibro._checks.InputError` unless r = 1 (or no barrier), D2 = 0."""
+    """Raise :class:`~fpk_vibro._checks.InputError` unless D2 = 0 and every wall has r = 1."""
     check_system("exact.gibbs", system)
-    if system.D2 != 0 or (system.has_barrier and system.r != 1.0):
-        raise InputError(f"exact: the Gibbs density needs D2 = 0 and r = 1 (or no barrier); "
-                         f"got D2={system.D2}, r={system.r}", where="exact", name="system")
+    rs = {side: w.r for side, w in system.walls}
+    if system.D2 != 0 or any(r != 1.0 for r in rs.values()):
+        got = (f"r={system.r}" if system.r is not None
+               else ", ".join(f"{side} r={r}" for side, r in rs.items()))
+        raise InputError(f"exact: the Gibbs density needs D2 = 0 and r = 1 at every wall "
+                         f"(or no wall); got D2={system.D2}, {got}", where="exact",
+                         name="system")
 
 
 def gibbs(system: VibroImpactSystem) -> GibbsSolution:

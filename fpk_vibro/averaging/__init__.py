@@ -1,4 +1,9 @@
-"""Stochastic averaging of the energy envelope (DESIGN §2, paper §3).
+"""Stochastic averaging of the energy envelope (DESIGN §2, paper §3), for any walls.
+
+Applies when the potential increases with |x| on the strip x_L < x < x_R (one orbit
+per energy level; :func:`fpk_vibro.orbits.require_single_well` names the reason
+otherwise): symmetric or asymmetric walls, each with its own r, a wall at or beyond
+the equilibrium (docs/averaging_walls.md).
 
 - :func:`coefficients` — averaged drift m(H), diffusion σ²(H), quasi-period T(H);
 - :func:`stationary`   — the closed-form stationary density → :class:`AveragedSolution`;

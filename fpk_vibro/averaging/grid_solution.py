@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..model import VibroImpactSystem
-from ..orbits import orbit_nodes
+from ..orbits import energy_floor, orbit_nodes
 from ..solution import Rule, Solution, Stored
 
 __all__ = ["EnergyGridSolution"]
@@ -22,9 +22,9 @@ class EnergyGridSolution(Solution):
     """p(H) as cell averages on ``faces`` (e.g. one time of :func:`transient`).
 
     p(H) is interpolated linearly between cell centres (constant in the end
-    half-cells) and is zero outside [0, H_max].  Moments use the midpoint rule per
-    cell with the exact orbit averages at the centres; P_impact is exact for the
-    cell masses because G(Δ) is a face.
+    half-cells) and is zero outside [faces[0], H_max].  Moments use the midpoint rule
+    per cell with the exact orbit averages at the centres; P_impact is exact for the
+    cell masses because every wall energy G(x_w) is a face.
     """
 
     kind = "averaging_grid"
@@ -39,7 +39,8 @@ class EnergyGridSolution(Solution):
         o = orbit_nodes(system, self.centres)
         self._T = o.period
         self._sums = {"x2": 2 * o.integrate(o.x ** 2), "x4": 2 * o.integrate(o.x ** 4),
-                      "y2": 2 * o.integrate(o.v ** 2), "y4": 2 * o.integrate(o.v ** 4)}
+                      "y2": 2 * o.integrate(o.v ** 2), "y4": 2 * o.integrate(o.v ** 4),
+                      "x1": 2 * o.integrate(o.x)}
 
     @property
     def mass(self) -> float:
@@ -79,14 +80,20 @@ class EnergyGridSolution(Solution):
         return np.where(self.system.in_strip(x), 2.0 * total.reshape(x.shape), 0.0)
 
     def pdf_y(self, y: np.ndarray) -> np.ndarray:
-        """p(y) = ∫ q(y²/2 + G(x)) dx over the strip (both sides of x = 0)."""
+        """p(y) = ∫ q(y²/2 + G(x)) dx over the strip: the parts |x| ∈ [X0, X1] on
+        either side of x = 0 (X0 > 0 for a strip that does not contain 0)."""
         y = np.asarray(y, dtype=float)
         K = 0.5 * y.ravel()[:, None] ** 2
         lo, hi = self.system.x_bounds
+        floor = min(0.0, energy_floor(self.system))
         total = np.zeros(K.shape[0])
-        for X in (hi, -lo):
-            A = self.system.amplitude(np.maximum(self._edges() - K, 0.0))
-            x_e = np.minimum(np.where(np.isfinite(A), A, X), X)
+        for X0, X1 in ((max(lo, 0.0), hi), (max(-hi, 0.0), -lo)):
+            if not X1 > X0:
+                continue
+            A = self.system.amplitude(np.maximum(self._edges() - K, floor))
+            x_e = np.minimum(np.where(np.isfinite(A), A, X1), X1)
+            if X0 > 0:
+                x_e = np.maximum(x_e, X0)
             total += _gauss(x_e, lambda xx: self._q(K[..., None] + self.system.potential(xx)))
         return total.reshape(y.shape)
 
@@ -98,6 +105,14 @@ class EnergyGridSolution(Solution):
         if self.system.has_barrier:
             out["P_impact"] = float(np.sum(m[self.centres > self.system.barrier_energy]))
         return out
+
+    def mean_x(self) -> float:
+        """E[x] by the midpoint rule per cell with the exact orbit averages of x
+        (0 for walls at ±Δ or none)."""
+        if self.system.symmetric:
+            return 0.0
+        m = self.density * np.diff(self.faces)
+        return float(np.sum(m * self._sums["x1"] / self._T))
 
     # -- persistence --------------------------------------------------------------
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -1,23 +1,25 @@
-"""Stationary density of the averaged energy process (DESIGN §2, paper Eqs. 22–27).
+"""Stationary density of the averaged energy process (paper Eqs. 22–27), any walls.
 
 With T, J1, J2, K, m, σ² as in :mod:`fpk_vibro.averaging.coefficients`:
 
 Stationary density (paper Eq. 24).  Because dJ2/dH = 2K (the integrand of J2
-vanishes at turning points and the barriers are fixed), 2m/σ² = J2'/J2 −
+vanishes at turning points and the walls are fixed), 2m/σ² = J2'/J2 −
 (2cJ1 + δ)/J2, so the paper's exp(∫ 2m/σ²)/σ² integrates in closed form to
 
-    p(H) = T(H) exp(−Φ(H)) / Z,   Φ(H) = ∫₀ᴴ f(u) du,   f = (2c J1 + δ)/J2,
+    p(H) = T(H) exp(−Φ(H)) / Z,   Φ(H) = ∫ f(u) du from the floor,   f = (2c J1 + δ)/J2,
 
-and the joint density p(x, y) = p(H)/T(H) = exp(−Φ(H))/Z (paper Eq. 25).  f is
-bounded at H = 0 (→ c/D1), so this is the exact form of DESIGN §2's "integrate
-2m/σ² − 1/u and add log H": no singular term is left.  For r = 1, D2 = 0,
-f ≡ c/D1 and the Gibbs density is recovered exactly.
+and the joint density p(x, y) = p(H)/T(H) = exp(−Φ(H))/Z (paper Eq. 25).  The
+floor is H = 0 when the strip contains x = 0 (f → c/D1 there, no singular term
+is left) and G at the nearest wall otherwise (preload: f ∝ (H − floor)^-½, still
+integrable).  For r = 1, D2 = 0, f ≡ c/D1 and the Gibbs density is recovered
+exactly, for any walls.
 
-Φ is built on panels of Gauss–Legendre nodes in the amplitude A (H = G(A),
-H ≤ G(Δ)) and in s = sqrt(H − G(Δ)) above the barrier energy; both variables make
-the integrands analytic (the kink of p(H) at G(Δ) is a sqrt-type singularity in H),
-and on each panel Φ is kept as the Legendre antiderivative of f, so Φ(H) is
-evaluated anywhere to the accuracy of the quadrature.
+Φ is built on panels of Gauss–Legendre nodes in the amplitude A (H = G(A), below
+the lowest wall energy) and in s = sqrt(H − G(x_w)) above each wall energy
+(:mod:`fpk_vibro.averaging.regimes`); these variables make the integrands analytic
+(each kink of p(H) at a wall energy is a sqrt-type singularity in H), and on each
+panel Φ is kept as the Legendre antiderivative of f, so Φ(H) is evaluated anywhere
+to the accuracy of the quadrature.
 """
 from __future__ import annotations
 
@@ -31,31 +33,15 @@ from ..orbits import orbit_nodes
 from ..solution import MOMENT_KEYS, Rule, Solution, Stored
 from .coefficients import _gl, _panel_nodes, _rate
 from .options import Options
+from .regimes import Layout, Regime, build_all
 
 __all__ = ["stationary", "AveragedSolution"]
 
-_MAX_PANELS = 400
-
-class _Regime:
-    """Φ on consecutive panels of one variable t (A or s): Legendre antiderivatives."""
-
-    def __init__(self, edges: np.ndarray, coef: np.ndarray, phi0: np.ndarray) -> None:
-        self.edges, self.coef, self.phi0 = edges, coef, phi0
-
-    @property
-    def empty(self) -> bool:
-        return self.edges.size < 2
-
-    def __call__(self, t: np.ndarray) -> np.ndarray:
-        """Φ(t) for t within [edges[0], edges[-1]] (clipped)."""
-        e = self.edges
-        k = np.clip(np.searchsorted(e, t, side="right") - 1, 0, e.size - 2)
-        tau = np.clip((2.0 * t - e[k] - e[k + 1]) / (e[k + 1] - e[k]), -1.0, 1.0)
-        return self.phi0[k] + L.legval(tau, self.coef[:, k], tensor=False)
+_GEO = 0.5 ** np.arange(40, 0, -1)       # geometric sub-panels toward a near-singular end
 
 
 class AveragedSolution(Solution):
-    """Stationary density of the averaged energy process (DESIGN §2).
+    """Stationary density of the averaged energy process.
 
     Built by :func:`stationary`.  Energies above ``H_end`` (where Φ exceeds
     ``phi_cut``, i.e. p/p_max < e^-phi_cut) use Φ extended linearly with slope
@@ -65,51 +51,68 @@ class AveragedSolution(Solution):
     kind = "averaging"
 
     def __init__(self, system: VibroImpactSystem, *, n_theta: int, n_panel: int,
-                 phi_cut: float, regimes: tuple[_Regime, _Regime], Z: float,
+                 phi_cut: float, regimes: tuple[Regime, ...], Z: float,
                  H_end: float, f_end: float, moments: dict[str, float]) -> None:
         self.system = system
         self.n_theta, self.n_panel, self.phi_cut = n_theta, n_panel, phi_cut
-        self._low, self._high = regimes
+        self._low, *self._highs = regimes
+        self._layout = Layout(system)
         self.Z, self.H_end, self.f_end = Z, H_end, f_end
         self._moments = moments
+        self._mean_x: float | None = None
 
     # -- Φ and its panel structure ------------------------------------------------
-    @property
-    def _Hb(self) -> float:
-        return self.system.barrier_energy
+    def _maps(self) -> list[tuple[Regime, Any, Any, bool]]:
+        """(regime, H(t), dH/dt, is an s-regime) for the amplitude and s-regimes."""
+        a, b = self.system.a, self.system.b
+        out = [(self._low, self.system.potential, lambda A: A * (a + b * A * A), False)]
+        for E, reg in zip(self._layout.kinks, self._highs):
+            out.append((reg, lambda s, E=E: E + s * s, lambda s: 2.0 * s, True))
+        return out
 
     def phi(self, H: np.ndarray) -> np.ndarray:
-        """Φ(H) = ∫₀ᴴ (2c J1 + δ)/J2 du, so that p(x, y) = exp(−Φ(H))/Z."""
-        H = np.maximum(np.asarray(H, dtype=float), 0.0)
+        """Φ(H) = ∫ (2c J1 + δ)/J2 du from the floor, so that p(x, y) = exp(−Φ(H))/Z."""
+        lay = self._layout
+        H = np.maximum(np.asarray(H, dtype=float), lay.floor)
         out = np.empty_like(H)
-        low = H <= min(self._Hb, self.H_end)
-        if np.any(low):
-            out[low] = self._low(self.system.amplitude(H[low]))
-        high = ~low & (H <= self.H_end)
-        if np.any(high):
-            out[high] = self._high(np.sqrt(H[high] - self._Hb))
-        beyond = H > self.H_end
+        done = np.zeros(H.shape, dtype=bool)
+        if not self._low.empty:
+            top = float(lay.kinks[0]) if lay.kinks.size else np.inf
+            done = H <= min(top, self.H_end)
+            if np.any(done):
+                out[done] = self._low(self.system.amplitude(H[done]))
+        for k, reg in enumerate(self._highs):
+            if reg.empty:
+                continue
+            sel = ~done & (H <= min(lay.top(k), self.H_end))
+            if np.any(sel):
+                out[sel] = reg(np.sqrt(H[sel] - lay.kinks[k]))
+            done = done | sel
+        beyond = ~done
         if np.any(beyond):
             out[beyond] = self.phi_cut_value + self.f_end * (H[beyond] - self.H_end)
         return out
 
     @property
     def phi_cut_value(self) -> float:
-        last = self._low if self._high.empty else self._high
-        k = last.edges.size - 2
-        return float(last.phi0[k] + L.legval(1.0, last.coef[:, k]))
+        """Φ at the end of the last panel (H_end)."""
+        return [r for r in [self._low, *self._highs] if not r.empty][-1].end_value
 
-    def _energy_edges(self) -> tuple[np.ndarray, np.ndarray]:
-        """Panel edges in H of the low (amplitude) and high (excess) regimes."""
-        return self.system.potential(self._low.edges), self._Hb + self._high.edges ** 2
+    def _energy_edges(self) -> list[tuple[np.ndarray, bool]]:
+        """Panel edges in H of each regime (capped at the next wall energy, which
+        E + s_max² may pass by a rounding), and whether it is an s-regime."""
+        tops = [np.inf] + [self._layout.top(k) for k in range(len(self._highs))]
+        return [(np.minimum(H_of(reg.edges), top), is_s)
+                for (reg, H_of, _, is_s), top in zip(self._maps(), tops)]
 
     # -- the Solution interface ---------------------------------------------------
     def pdf_energy(self, H: np.ndarray) -> np.ndarray:
-        """p(H) = T(H) exp(−Φ(H)) / Z (paper Eq. 24), zero for H < 0."""
+        """p(H) = T(H) exp(−Φ(H)) / Z (paper Eq. 24), zero below the floor."""
         H = np.asarray(H, dtype=float)
-        Hc = np.maximum(H, 0.0)
+        floor = self._layout.floor
+        Hc = np.maximum(H, floor)
         T = orbit_nodes(self.system, Hc, self.n_theta).period
-        return np.where(H >= 0, T * np.exp(-self.phi(Hc)) / self.Z, 0.0)
+        return np.where(H >= floor, T * np.exp(-self.phi(Hc)) / self.Z, 0.0)
 
     def pdf_joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """p(x, y) = p(H)/T(H) = exp(−Φ(H))/Z on the strip (paper Eq. 25)."""
@@ -120,60 +123,84 @@ class AveragedSolution(Solution):
     def pdf_x(self, x: np.ndarray) -> np.ndarray:
         """p(x) = (2/Z) ∫₀^∞ exp(−Φ(G(x) + v²/2)) dv (paper Eq. 26).
 
-        Composite Gauss–Legendre in v on the images of the Φ panels; above G(Δ),
-        for G(x) < G(Δ), in s = sqrt(H − G(Δ)) instead (dv = 2s ds/v), which
-        removes the sqrt singularity where the orbit starts to impact.
+        Composite Gauss–Legendre in v on the images of the Φ panels.  For an
+        s-regime starting at E > G(x) the variable is s = sqrt(H − E) instead
+        (dv = 2s ds/v), which removes the sqrt singularity where the orbit starts to
+        impact; for E < G(x) the v-panels are graded geometrically toward v = 0,
+        where s = sqrt(G(x) − E + v²/2) is nearly singular.
         """
         x = np.asarray(x, dtype=float)
         G = self.system.potential(x.ravel())
         t, gw = L.leggauss(self.n_panel)
-        H_low, H_high = self._energy_edges()
+        edges = self._energy_edges()
         total = np.zeros(G.size)
+        H_low = edges[0][0]
         if H_low.size > 1:
             total += self._v_integral(G, H_low, t, gw)
-        if H_high.size > 1:
-            below = G < self._Hb
-            total[~below] += self._v_integral(G[~below], H_high, t, gw)
-            # dv/ds = 2s/sqrt(v*² + 2s²) turns over at s ~ v* → 0 as x → ±Δ:
+        for E, reg, (H_high, _) in zip(self._layout.kinks, self._highs, edges[1:]):
+            if H_high.size < 2:
+                continue
+            below = G < E
+            above = G > E
+            on = ~below & ~above
+            total[on] += self._v_integral(G[on], H_high, t, gw)
+            if np.any(above):
+                total[above] += self._v_integral(G[above], H_high, t, gw, graded=True)
+            # dv/ds = 2s/sqrt(v*² + 2s²) turns over at s ~ v* → 0 as G(x) → E:
             # geometric sub-panels toward s = 0 resolve it for every x
-            e = self._high.edges
-            s_edges = np.concatenate([[0.0], e[1] * 0.5 ** np.arange(40, 0, -1), e[1:]])
+            e = reg.edges
+            s_edges = np.concatenate([[0.0], e[1] * _GEO, e[1:]])
             s, ds = _panel_nodes(s_edges, t, gw)
-            Hs = self._Hb + s * s
+            Hs = E + s * s
             vv = np.sqrt(2.0 * (Hs - G[below, None]))
             total[below] += np.sum(ds * np.exp(-self.phi(Hs)) * 2.0 * s / vv, axis=-1)
         p = np.where(self.system.in_strip(x.ravel()), 2.0 * total / self.Z, 0.0)
         return p.reshape(x.shape)
 
-    def _v_integral(self, G: np.ndarray, H_edges: np.ndarray, t, gw) -> np.ndarray:
-        """∫ exp(−Φ(G + v²/2)) dv over the v-images of the energy panels ``H_edges``."""
+    def _v_integral(self, G: np.ndarray, H_edges: np.ndarray, t, gw,
+                    graded: bool = False) -> np.ndarray:
+        """∫ exp(−Φ(G + v²/2)) dv over the v-images of the energy panels ``H_edges``
+        (``graded``: with geometric sub-panels below the first non-empty image)."""
         v_e = np.sqrt(2.0 * np.maximum(H_edges - G[:, None], 0.0))
+        if graded:
+            v1 = np.min(np.where(v_e > 0, v_e, np.inf), axis=-1, keepdims=True)
+            v1 = np.where(np.isfinite(v1), v1, 0.0)
+            v_e = np.concatenate([np.zeros_like(v1), v1 * _GEO, np.maximum(v_e, v1)], axis=-1)
         v, dv = _panel_nodes(v_e, t, gw)
         return np.sum(dv * np.exp(-self.phi(G[:, None] + 0.5 * v * v)), axis=-1)
 
     def pdf_y(self, y: np.ndarray) -> np.ndarray:
         """p(y) = ∫ exp(−Φ(y²/2 + G(x))) dx / Z over the strip (paper Eq. 27).
 
-        G is even, so the integral is a sum of I(X) = ∫₀^X over the two sides
-        (X = Δ at a barrier, ∞ where none).  Composite Gauss–Legendre in x on the
-        images of the Φ panels; above G(Δ) with x = x_l + u², which smooths the
-        (x − x*)^{3/2} behaviour of Φ where the orbit starts to impact.
+        G is even, so the integral is a sum over the two sides of x = 0 of
+        ∫ over |x| ∈ [X0, X1] (X0 = 0 when the strip contains 0, a wall's |x_w| for
+        a strip on one side; X1 = |x_w| at a wall, ∞ where none).  Composite
+        Gauss–Legendre in |x| on the images of the Φ panels; in the s-regimes with
+        |x| = x_l + u², which smooths the (x − x*)^{3/2} behaviour of Φ where the
+        orbit starts to impact.
         """
         y = np.asarray(y, dtype=float)
         K = 0.5 * y.ravel() ** 2
         lo, hi = self.system.x_bounds
-        total = self._x_integral(K, hi) + self._x_integral(K, -lo)
+        total = np.zeros(K.size)
+        for X0, X1 in ((max(lo, 0.0), hi), (max(-hi, 0.0), -lo)):
+            if X1 > X0:
+                total += self._x_integral(K, X0, X1)
         return (total / self.Z).reshape(y.shape)
 
-    def _x_integral(self, K: np.ndarray, X: float) -> np.ndarray:
+    def _x_integral(self, K: np.ndarray, X0: float, X1: float) -> np.ndarray:
         t, gw = L.leggauss(self.n_panel)
-        H_low, H_high = self._energy_edges()
+        floor = min(0.0, self._layout.floor)
         total = np.zeros(K.size)
-        for He, smooth_start in ((H_low, False), (H_high, True)):
+        for He, smooth_start in self._energy_edges():
             if He.size < 2:
                 continue
-            A = self.system.amplitude(np.maximum(He - K[:, None], 0.0))
-            x_e = np.minimum(np.where(np.isfinite(A), A, X), X)
+            A = self.system.amplitude(np.maximum(He - K[:, None], floor))
+            x_e = np.minimum(np.where(np.isfinite(A), A, X1), X1)
+            if X0 > 0:
+                x_e = np.maximum(x_e, X0)
+                if smooth_start:
+                    x_e = _graded_start(x_e)
             if smooth_start:
                 u, du = _gl(0.0, np.sqrt(x_e[:, 1:] - x_e[:, :-1]), t, gw)
                 xx = x_e[:, :-1, None] + u * u
@@ -187,12 +214,37 @@ class AveragedSolution(Solution):
     def moments(self) -> dict[str, float]:
         return dict(self._moments)
 
+    def mean_x(self) -> float:
+        """E[x] from the orbit averages of x: ∫ exp(−Φ) 2∫ x dx/|y| dH / Z.
+
+        Exactly 0 for walls at ±Δ (or none); computed once from the Φ panels.
+        """
+        if self.system.symmetric:
+            return 0.0
+        if self._mean_x is None:
+            total = 0.0
+            for reg, H_of, dH_of, _ in self._maps():
+                if reg.empty:
+                    continue
+                t, w, phi = reg.nodes(self.n_panel)
+                o = orbit_nodes(self.system, H_of(t), self.n_theta)
+                total += float(np.sum(w * dH_of(t) * np.exp(-phi) * 2.0 * o.integrate(o.x)))
+            self._mean_x = total / self.Z
+        return self._mean_x
+
     # -- persistence --------------------------------------------------------------
+    @staticmethod
+    def _names(n_high: int) -> list[str]:
+        """Array prefixes: "low", "high", then "high2", ... for further wall energies."""
+        return ["low", "high"] + [f"high{k}" for k in range(2, n_high + 1)]
+
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         meta = dict(n_theta=self.n_theta, n_panel=self.n_panel, phi_cut=self.phi_cut,
                     Z=self.Z, H_end=self.H_end, f_end=self.f_end, moments=self._moments)
+        if len(self._highs) > 1:
+            meta["n_high"] = len(self._highs)
         arrays = {}
-        for name, reg in (("low", self._low), ("high", self._high)):
+        for name, reg in zip(self._names(len(self._highs)), (self._low, *self._highs)):
             arrays[f"{name}_edges"] = reg.edges
             arrays[f"{name}_coef"] = reg.coef
             arrays[f"{name}_phi0"] = reg.phi0
@@ -200,69 +252,52 @@ class AveragedSolution(Solution):
 
     _meta_schema = {**{k: Rule.of(Options.declared()[k])
                        for k in ("n_theta", "n_panel", "phi_cut")},
-                    "Z": Rule.number(0.0, lo_open=True), "H_end": Rule.number(0.0),
+                    "Z": Rule.number(0.0, lo_open=True), "H_end": Rule.number(),
                     "f_end": Rule.number(),
-                    "moments": Rule.mapping(Rule.number(), MOMENT_KEYS[:5], MOMENT_KEYS)}
+                    "moments": Rule.mapping(Rule.number(), MOMENT_KEYS[:5], MOMENT_KEYS),
+                    "n_high": Rule.integer(2, 2).optional()}
 
     @classmethod
     def _array_schema(cls, meta):
-        """Per regime: panel edges (n), Legendre coefficients (n_panel + 1, n - 1), Φ₀ (n - 1)."""
+        """Per regime: panel edges (n), Legendre coefficients (n_panel + 1, n - 1), Φ₀
+        (n - 1); regimes "low", "high" and, with a second wall energy, "high2"."""
         rows, out = meta["n_panel"] + 1, {}
-        for r, least in (("low", 2), ("high", 1)):
-            out[f"{r}_edges"] = Stored((r,), min_size=least, nonneg=True, increasing=True)
+        for r in cls._names(meta.get("n_high", 1)):
+            out[f"{r}_edges"] = Stored((r,), min_size=1, increasing=True,
+                                       nonneg=True)
             out[f"{r}_coef"] = Stored((rows, f"{r}-1"))
             out[f"{r}_phi0"] = Stored((f"{r}-1",))
         return out
 
     @classmethod
     def _check_state(cls, system, meta, arrays):
-        """P_impact among the moments exactly when the system has a barrier."""
+        """P_impact among the moments exactly when the system has a barrier; one
+        s-regime per distinct wall energy."""
         if ("P_impact" in meta["moments"]) != system.has_barrier:
             raise ValueError("meta['moments'] must hold P_impact exactly when the system "
                              f"has a barrier (barriers={system.barriers!r})")
+        if meta.get("n_high", 1) != Layout(system).n_high:
+            raise ValueError(f"meta['n_high'] must be {Layout(system).n_high}, the number "
+                             "of distinct wall energies of the system")
 
     @classmethod
     def _from_state(cls, system, meta, arrays):
-        regimes = tuple(_Regime(arrays[f"{n}_edges"], arrays[f"{n}_coef"], arrays[f"{n}_phi0"])
-                        for n in ("low", "high"))
+        regimes = tuple(Regime(arrays[f"{n}_edges"], arrays[f"{n}_coef"], arrays[f"{n}_phi0"])
+                        for n in cls._names(meta.get("n_high", 1)))
         return cls(system, n_theta=meta["n_theta"], n_panel=meta["n_panel"],
                    phi_cut=meta["phi_cut"], regimes=regimes, Z=meta["Z"],
                    H_end=meta["H_end"], f_end=meta["f_end"], moments=meta["moments"])
 
 
-def _build_regime(system, H_of, dH_of, t_max, h0, phi_start, phi_cut, n_panel, n_theta):
-    """Panels of Φ in variable t from 0 until t_max or Φ ≥ phi_cut (adaptive widths)."""
-    tq, gw = L.leggauss(n_panel)
-    j = np.arange(n_panel)
-    proj = (j[:, None] + 0.5) * L.legvander(tq, n_panel - 1).T * gw   # values → Legendre coefs
-    edges, coefs, phi0, nodes = [0.0], [], [], []
-    t, h, phi = 0.0, h0, phi_start
-    while t < t_max and phi < phi_cut:
-        if len(coefs) >= _MAX_PANELS:
-            raise ValueError(
-                f"averaging: the density decays too slowly to be normalised (Φ = {phi:.3g} "
-                f"< {phi_cut} after {_MAX_PANELS} panels, H = {float(H_of(t)):.3g}); the "
-                f"parametric noise D2={system.D2} may be too strong for a stationary density")
-        t1 = min(t + h, t_max)
-        tt, wt = _gl(t, t1, tq, gw)
-        H = H_of(tt)
-        f, sums = _rate(system, H, n_theta)
-        g = f * dH_of(tt)
-        inc = float(np.sum(wt * g))
-        if inc > 8.0 and (t1 - t) > 1e-9 * max(t1, 1e-300):
-            h = 0.5 * (t1 - t)
-            continue
-        ci = L.legint(proj @ g, lbnd=-1) * (0.5 * (t1 - t))
-        nodes.append((H, wt * dH_of(tt), phi + L.legval(tq, ci), sums))
-        edges.append(t1)
-        coefs.append(ci)
-        phi0.append(phi)
-        phi += float(L.legval(1.0, ci))
-        t = t1
-        if inc < 2.0:
-            h *= 2.0
-    coef = np.stack(coefs, axis=1) if coefs else np.zeros((n_panel + 1, 0))
-    return _Regime(np.array(edges), coef, np.array(phi0)), nodes, phi, t
+def _graded_start(x_e: np.ndarray) -> np.ndarray:
+    """Edges (rows) with geometric sub-panels (ratio 4 in x, 2 in u = sqrt(x − x_a)) on
+    the first non-empty panel [x_a, x_b]: at a wall |x_w| = X0 > 0 with K + G(X0) just
+    above a wall energy, s = sqrt(K + G(x) − E) is nearly singular at x_a."""
+    x_a = x_e[:, :1]
+    x_b = np.min(np.where(x_e > x_a, x_e, np.inf), axis=-1, keepdims=True)
+    x_b = np.where(np.isfinite(x_b), x_b, x_a)
+    graded = x_a + (x_b - x_a) * 0.25 ** np.arange(20, 0, -1)
+    return np.concatenate([x_a, graded, np.maximum(x_e, x_b)], axis=-1)
 
 
 def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 24,
@@ -272,9 +307,10 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
     Parameters
     ----------
     system : VibroImpactSystem
-        G must increase on (0, Δ) (one orbit per energy level), else ValueError.
+        Any walls; G must increase with |x| on the strip (one orbit per energy
+        level, :func:`fpk_vibro.orbits.require_single_well`), else ValueError.
     n_theta : int
-        Gauss–Legendre nodes along each orbit (θ substitution, DESIGN §2).
+        Gauss–Legendre nodes along each orbit (θ substitution of :mod:`fpk_vibro.orbits`).
     n_panel : int
         Gauss–Legendre nodes per energy panel.
     phi_cut : float
@@ -288,8 +324,9 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
     Notes
     -----
     Accuracy: with the defaults, moments and normalisation agree with the exact
-    Gibbs solution (r = 1, D2 = 0) to ~1e-13 relative, and T, m, σ² with adaptive
-    quadrature to ~1e-13 (tests/test_averaging.py).
+    Gibbs solution (r = 1, D2 = 0) to ~1e-13 relative, also for asymmetric and
+    preloaded walls, and T, m, σ² with adaptive quadrature to ~1e-13
+    (tests/test_averaging.py, tests/test_walls_averaging.py).
     """
     opts, _ = Options.prepare(system, "stationary", locals())
     return solve(system, opts)
@@ -298,30 +335,8 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
 def solve(system: VibroImpactSystem, opts: Options) -> AveragedSolution:
     """The closed form of :func:`stationary` for validated ``opts``."""
     n_theta, n_panel, phi_cut = opts.n_theta, opts.n_panel, opts.phi_cut
-    a, b, c = system.a, system.b, system.c
-    Hb = system.barrier_energy
-    A_max = system.delta if system.has_barrier else np.inf
-    # initial panel width from the energy scale D1/c of the Gibbs limit
-    if c > 0:
-        A0 = float(system.amplitude(system.D1 / c))
-        h0 = 0.5 * (A0 if np.isfinite(A0) else A_max)
-        h0 = min(h0, A_max)
-    else:
-        h0 = 0.25 * A_max
-    low, nodes, phi, t_end = _build_regime(
-        system, system.potential, lambda A: A * (a + b * A * A), A_max, h0, 0.0,
-        phi_cut, n_panel, n_theta)
-    high = _Regime(np.zeros(1), np.zeros((n_panel + 1, 0)), np.zeros(0))
-    H_end = float(system.potential(t_end))
-    n_low = len(nodes)
-    if system.has_barrier and phi < phi_cut:
-        f_b = float(_rate(system, np.array([Hb]), n_theta)[0][0])
-        h0 = 0.5 / np.sqrt(f_b) if f_b > 0 else 0.25 * np.sqrt(Hb)
-        high, more, phi, s_end = _build_regime(
-            system, lambda s: Hb + s * s, lambda s: 2.0 * s, np.inf, h0, phi,
-            phi_cut, n_panel, n_theta)
-        nodes += more
-        H_end = Hb + s_end ** 2
+    low, highs, nodes, H_end, n_low = build_all(system, Layout(system), n_theta, n_panel,
+                                                phi_cut)
     f_end = float(_rate(system, np.array([H_end]), n_theta)[0][0])
 
     H = np.concatenate([n[0] for n in nodes])
@@ -349,4 +364,4 @@ def solve(system: VibroImpactSystem, opts: Options) -> AveragedSolution:
         k0 = sum(n[0].size for n in nodes[:n_low])
         mom["P_impact"] = float(np.sum(w[k0:] * sums["T"][k0:])) / Z
     return AveragedSolution(system, n_theta=n_theta, n_panel=n_panel, phi_cut=float(phi_cut),
-                            regimes=(low, high), Z=Z, H_end=H_end, f_end=f_end, moments=mom)
+                            regimes=(low, *highs), Z=Z, H_end=H_end, f_end=f_end, moments=mom)

@@ -1,8 +1,10 @@
 """The averaged FPK in time (DESIGN §2):
 
-    ∂p/∂t = −∂(m p)/∂H + ½ ∂²(σ² p)/∂H²  on (0, H_max),  zero flux at both ends.
+    ∂p/∂t = −∂(m p)/∂H + ½ ∂²(σ² p)/∂H²  on (floor, H_max),  zero flux at both ends.
 
-Finite volumes on cells of H with G(Δ) a face (p(H) has its kink there).  The flux
+Finite volumes on cells of H from the strip's floor (0, or G at the nearest wall
+of a preloaded strip), with every wall energy G(x_w) a face (p(H) has its kinks
+there).  The flux
 is written with the closed-form stationary density p_s of :func:`stationary`:
 
     J = m p − ½ (σ² p)' = −½ σ² p_s (p / p_s)',
@@ -26,20 +28,47 @@ from ..orbits import orbit_nodes
 from .coefficients import coefficients
 from .grid_solution import EnergyGridSolution
 from .options import Options, check_coverage
+from .regimes import Layout
 from .stationary import AveragedSolution, solve
 
 __all__ = ["transient", "energy_faces", "averaged_operator", "initial_cell_masses"]
 
 
 def energy_faces(system: VibroImpactSystem, H_max: float, n_cells: int) -> np.ndarray:
-    """Cell faces on [0, H_max]; G(Δ) is a face, with cells graded toward it from above."""
-    Hb = system.barrier_energy
-    if not (system.has_barrier and Hb < H_max):
-        return np.linspace(0.0, H_max, n_cells + 1)
-    # above G(Δ) uniform in s = sqrt(H − G(Δ)): p(H) ~ (H − G(Δ))^½ there
-    n1 = min(max(8, round(n_cells * np.sqrt(Hb / H_max))), n_cells - 8)
-    s = np.linspace(0.0, np.sqrt(H_max - Hb), n_cells - n1 + 1)[1:]
-    return np.concatenate([np.linspace(0.0, Hb, n1 + 1), Hb + s * s])
+    """Cell faces on [floor, H_max]; every wall energy G(x_w) < H_max is a face, with
+    cells uniform in s = sqrt(H − G(x_w)) above it (graded toward it from above).
+
+    A strip containing x = 0 starts with cells uniform in H from 0; a preloaded
+    strip starts at its floor, a wall energy, with cells uniform in s.
+    """
+    lay = Layout(system)
+    kinks = [float(E) for E in lay.kinks if lay.floor < E < H_max]
+    if lay.A_max is not None and len(kinks) <= 1:
+        Hb = system.barrier_energy
+        if not (system.has_barrier and Hb < H_max):
+            return np.linspace(0.0, H_max, n_cells + 1)
+        # above G(Δ) uniform in s = sqrt(H − G(Δ)): p(H) ~ (H − G(Δ))^½ there
+        n1 = min(max(8, round(n_cells * np.sqrt(Hb / H_max))), n_cells - 8)
+        s = np.linspace(0.0, np.sqrt(H_max - Hb), n_cells - n1 + 1)[1:]
+        return np.concatenate([np.linspace(0.0, Hb, n1 + 1), Hb + s * s])
+    B = np.array([lay.floor, *kinks, H_max])
+    in_s = [lay.A_max is None] + [True] * len(kinks)
+    n = _share(n_cells, np.sqrt(np.diff(B)))
+    faces = [B[:1]]
+    for lo, hi, k, s_var in zip(B[:-1], B[1:], n, in_s):
+        seg = (lo + np.linspace(0.0, np.sqrt(hi - lo), k + 1) ** 2 if s_var
+               else np.linspace(lo, hi, k + 1))
+        seg[-1] = hi
+        faces.append(seg[1:])
+    return np.concatenate(faces)
+
+
+def _share(n_cells: int, weights: np.ndarray) -> np.ndarray:
+    """n_cells split in proportion to ``weights``, at least min(8, n_cells // len) each."""
+    least = min(8, n_cells // weights.size)
+    n = np.maximum(least, np.round(n_cells * weights / weights.sum()).astype(int))
+    n[np.argmax(n)] += n_cells - n.sum()
+    return n
 
 
 def averaged_operator(system: VibroImpactSystem, faces: np.ndarray,
@@ -109,7 +138,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     Parameters
     ----------
     system : VibroImpactSystem
-        G increasing on (0, Δ) (as for :func:`stationary`).
+        Any walls; G increasing in |x| on the strip (as for :func:`stationary`).
     initial : dict or callable
         ``{"mean": (x0, y0), "std": (sx, sy)}`` (x truncated to the strip, std 0 = a
         point mass) or a sampler ``initial(n, rng)``: the spec shared by every
@@ -169,8 +198,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
 
 
 def _energy_at_phi(st: AveragedSolution, level: float) -> float:
-    """The energy where Φ(H) = level (bisection; Φ is increasing)."""
-    lo, hi = 0.0, st.H_end
+    """The energy where Φ(H) = level (bisection; Φ is increasing from the floor)."""
+    lo, hi = st._layout.floor, st.H_end
     if st.phi(np.array([hi]))[0] <= level:
         return hi
     for _ in range(80):
