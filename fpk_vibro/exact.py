@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy import integrate, special
 
-from ._checks import InputError
+from ._checks import InputError, invalid
 from .model import VibroImpactSystem, check_system
 from .orbits import energy_floor, orbit_nodes, require_single_well
 from .scales import potential_min
@@ -148,6 +148,27 @@ class GibbsSolution(Solution):
             out["P_impact"] = self._x_integral(
                 lambda x: special.erfc(np.sqrt(self.beta * np.maximum(Gb - G(x), 0.0)))) / self.Zx
         return out
+
+    def impacts(self) -> dict[str, dict[str, float]]:
+        """Closed forms (docs/impacts.md): y ~ N(0, σ²), σ² = D1/c, independent of x,
+        so ν_w = p_X(x_w) σ/sqrt(2π), E[u] = σ sqrt(π/2), E[u²] = 2σ², no energy lost."""
+        sigma = math.sqrt(self.system.D1 / self.system.c)
+        out = {}
+        for side, w in self.system.walls:
+            px = float(self.pdf_x(np.array([w.position]))[0])
+            out[side] = {"rate": px * sigma / math.sqrt(2 * math.pi),
+                         "mean_speed": sigma * math.sqrt(math.pi / 2),
+                         "mean_square_speed": 2 * sigma * sigma, "energy_rate": 0.0}
+        return out
+
+    def impact_speed_pdf(self, wall: str, u):
+        """The Rayleigh density (u/σ²) exp(−u²/2σ²), u ≥ 0, on either wall."""
+        if wall not in ("left", "right") or getattr(self.system, wall) is None:
+            raise invalid("impact_speed_pdf", "wall", "one of the system's walls "
+                          f"{[s for s, _ in self.system.walls]}", wall)
+        u = np.asarray(u, dtype=float)
+        s2 = self.system.D1 / self.system.c
+        return np.where(u >= 0, u / s2 * np.exp(-u * u / (2 * s2)), 0.0)
 
     def mean_x(self) -> float:
         """E[x] = ∫ x exp(−β G) dx / ∫ exp(−β G) dx over the strip (adaptive quadrature);

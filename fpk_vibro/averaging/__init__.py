@@ -14,5 +14,7 @@ from .grid_solution import EnergyGridSolution
 from .options import Options
 from .stationary import AveragedSolution, stationary
 from .transient import transient
+from .first_passage import first_passage
 
-__all__ = ["Options", "coefficients", "stationary", "transient", "AveragedSolution", "EnergyGridSolution"]
+__all__ = ["Options", "coefficients", "stationary", "transient", "first_passage",
+           "AveragedSolution", "EnergyGridSolution"]

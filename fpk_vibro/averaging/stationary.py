@@ -214,6 +214,17 @@ class AveragedSolution(Solution):
     def moments(self) -> dict[str, float]:
         return dict(self._moments)
 
+    def impacts(self) -> dict[str, dict[str, float]]:
+        """Per wall: impact rate, speed moments and energy removed per unit time, from
+        p(H) and the orbits (:mod:`fpk_vibro.averaging.impacts`)."""
+        from .impacts import impact_statistics
+        return impact_statistics(self)
+
+    def impact_speed_pdf(self, wall: str, u):
+        """Density of the speed just before impact on ``wall`` ("left"/"right")."""
+        from .impacts import impact_speed_pdf
+        return impact_speed_pdf(self, wall, u)
+
     def mean_x(self) -> float:
         """E[x] from the orbit averages of x: ∫ exp(−Φ) 2∫ x dx/|y| dH / Z.
 
