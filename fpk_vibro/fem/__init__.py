@@ -52,7 +52,7 @@ from .solve import SOLVERS
 __all__ = ["stationary", "transient", "Options", "Discretisation", "build", "FEMSolution",
            "assemble", "assemble_tensor", "domain", "DEFAULT_NX", "POSITIVITY",
            "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS",
-           "relaxation_time"]
+           "relaxation_time", "first_passage"]
 
 
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
