@@ -143,6 +143,70 @@ def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str
     return written
 
 
+_NAMES = {"exact": "exact (Gibbs)", "averaging": "stochastic averaging",
+          "fem": "finite elements", "montecarlo": "Monte Carlo"}
+
+
+def impact_speeds(solutions: dict, path, *, title: str = "") -> Path:
+    """The density of the speed just before impact, one panel per wall, every method
+    (Monte Carlo as a histogram with ±1 SE bars when it recorded the speeds)."""
+    plt = _pyplot()
+    system = next(iter(solutions.values())).system
+    walls = [side for side, _ in system.walls]
+    fig, axes = plt.subplots(1, len(walls), figsize=(5.0 * len(walls), 3.8), dpi=110,
+                             squeeze=False)
+    for ax, side in zip(axes[0], walls):
+        top = 0.0
+        for method, sol in solutions.items():
+            hist = getattr(sol, "impact_speed_histogram", None)
+            if hist is not None:
+                try:
+                    edges, dens, se = hist(side)
+                except (ValueError, KeyError):
+                    continue
+                mid = 0.5 * (edges[1:] + edges[:-1])
+                ax.errorbar(mid, dens, yerr=se, fmt="o", ms=3, mfc="none", color="C2",
+                            capsize=1.5, lw=0.8, label=_NAMES[method] + " (±1 SE)")
+                top = max(top, float(edges[-1]))
+        u = np.linspace(0.0, top or 3.0 * max(
+            v.impacts()[side]["mean_speed"] for m, v in solutions.items()
+            if m != "montecarlo"), 400)
+        for method, sol in solutions.items():
+            if method == "montecarlo":
+                continue
+            try:
+                ax.plot(u, sol.impact_speed_pdf(side, u), label=_NAMES.get(method, method),
+                        **_STYLE.get(method, {}))
+            except NotImplementedError:
+                pass
+        ax.set_xlabel(r"impact speed $u$ (m/s)")
+        ax.set_ylabel(r"probability density $f(u)$ (s/m)")
+        ax.set_title(f"{side} wall, r = {getattr(system, side).r:g}", fontsize=9)
+        ax.legend(frameon=False, fontsize=8)
+    fig.suptitle(title, fontsize=9)
+    return _save(fig, path)
+
+
+def reliability(passages: dict, path, *, title: str = "") -> Path:
+    """R(t) = P(T > t) of each method (Monte Carlo with its 95 % band)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
+    t_end = max(float(fp.times[-1]) for fp in passages.values())
+    for method, fp in passages.items():
+        if fp.survival_band is not None:
+            ax.fill_between(fp.times, *fp.survival_band, color="C2", alpha=0.25, lw=0)
+        ax.plot(fp.times, fp.survival, label=f"{_NAMES.get(method, method)}: "
+                f"τ = {fp.mean:.4g}" + (f" ± {fp.mean_se:.2g}" if fp.mean_se else ""),
+                **_STYLE.get(method, {"color": "C2"}))
+    ax.set_xlim(0, t_end)
+    ax.set_xlabel("time $t$ (s)")
+    ax.set_ylabel(r"reliability $R(t) = P(T > t)$")
+    fp0 = next(iter(passages.values()))
+    ax.set_title(f"{title}: first passage of H = {fp0.energy:g}", fontsize=9)
+    ax.legend(frameon=False, fontsize=8)
+    return _save(fig, path)
+
+
 def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") -> Path:
     """A moment against time for each method (Monte Carlo with ±2 SE bars).
 

@@ -81,6 +81,29 @@ def _moments_record(sol: Any) -> dict[str, Any]:
     return rec
 
 
+def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
+                 passages: dict[str, Any]) -> dict[str, Any]:
+    """Impact statistics and first passage of one method, if the scene asks for them."""
+    out: dict[str, Any] = {}
+    if "impacts" in scene.quantities and system.has_barrier:
+        try:
+            out["impacts"] = sol.impacts()
+        except NotImplementedError:
+            pass
+        if hasattr(sol, "power_balance"):
+            out["power_balance"] = sol.power_balance()
+    if scene.first_passage is not None and method != "exact":
+        module = importlib.import_module(f"fpk_vibro.{method}")
+        fp = scene.first_passage
+        kw = {"seed": scene.numerics.get("montecarlo", {}).get("seed")} \
+            if method == "montecarlo" else {}
+        start = fp["start"] if fp["start"] == "stationary" else tuple(fp["start"])
+        passages[method] = module.first_passage(system, energy=fp["energy"], start=start,
+                                                times=fp["times"], **kw)
+        out["first_passage"] = passages[method].to_dict()
+    return out
+
+
 def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
               out_dir: Path, progress: bool | None = False, token: str | None = None
               ) -> dict[str, Any]:
@@ -91,6 +114,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                               "system": system.to_dict(), "effects": system.effects,
                               "methods": {}}
     solutions: dict[str, Any] = {}
+    passages: dict[str, Any] = {}
     for method in scene.methods:
         importlib.import_module(f"fpk_vibro.{method}")   # imports are not the method's time
         t0 = time.perf_counter()
@@ -106,13 +130,14 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
             entry["at"] = [_moments_record(s) for s in sol]
         else:
             entry.update(_moments_record(sol))
+            entry.update(_engineering(scene, method, system, sol, passages))
         record["methods"][method] = entry
         if record["status"] == "interrupted":
             break
     if token is not None and not holds(out_dir, token):
         raise RuntimeError("the run was stopped; this point's result is discarded")
     arrays: dict[str, np.ndarray] = {}
-    want_density = [q for q in scene.quantities if q != "moments"]
+    want_density = [q for q in scene.quantities if q in ("energy", "x", "y", "joint")]
     if want_density:
         snapshots = {m: (s[-1] if scene.transient else s) for m, s in solutions.items()}
         ref = next(iter(snapshots.values()))
@@ -138,6 +163,15 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                 title += f", t = {scene.times[-1]:g}"
             record["figures"] = [str(p.name) for p in plotting.scene_figures(
                 snapshots, grids, want_density, out_dir, f"p{index}", title)]
+    if "png" in scene.formats and ("impacts" in scene.quantities and system.has_barrier
+                                   or passages):
+        figs = record.setdefault("figures", [])
+        if "impacts" in scene.quantities and system.has_barrier:
+            figs.append(plotting.impact_speeds(solutions, out_dir / f"p{index}_impact_speed.png",
+                                               title=scene.name).name)
+        if passages:
+            figs.append(plotting.reliability(passages, out_dir / f"p{index}_reliability.png",
+                                             title=scene.name).name)
     if scene.transient and "png" in scene.formats and "moments" in scene.quantities:
         figs = record.setdefault("figures", [])
         for key in ("E_H", "E_x2", "E_y2"):

@@ -36,7 +36,9 @@ __all__ = ["Scene", "SceneError", "load_scene", "parse_scene", "SCHEMA", "METHOD
            "QUANTITIES", "schema_table", "SWEEPABLE"]
 
 METHODS = ("averaging", "fem", "montecarlo", "exact")
-QUANTITIES = ("energy", "x", "y", "joint", "moments")
+QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
+#: Quantities of a stationary scene only.
+STATIONARY_ONLY = ("impacts", "first_passage")
 FORMATS = ("json", "npz", "png", "vtu")
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
              "right.position", "right.r")
@@ -91,6 +93,12 @@ def _times(name: str, v: Any, where: str | None) -> tuple[float, ...]:
                       "numbers >= 0", v) from None
 
 
+def _start(name: str, v: Any, where: str | None) -> Any:
+    if v == "stationary":
+        return v
+    return _numbers(2)(name, v, where)
+
+
 def _option(default: Any, doc: str, check, allowed: str, unit: str = "") -> Option:
     return Option(default, doc, "custom", check=check, allowed=allowed, unit=unit)
 
@@ -116,6 +124,17 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
                       check=_numbers(2, 0.0, "numbers >= 0"),
                       allowed="list of two numbers >= 0", auto="none"),
     },
+    "first_passage": {
+        "energy": Option(None, "critical energy H_c of the safe set {H < H_c} "
+                         "(needed with the quantity \"first_passage\")", "float", lo=0.0,
+                         lo_open=True, unit="J/kg", auto="none"),
+        "start": Option((0.0, 0.0), "where paths start: [x0, y0] or \"stationary\"",
+                        "custom", check=lambda n, v, w: _start(n, v, w),
+                        allowed="list of two numbers or \"stationary\""),
+        "times": Option(None, "times at which R(t) is reported", "custom", check=_times,
+                        allowed="increasing list of numbers >= 0", unit="s",
+                        auto="a grid up to 5 τ"),
+    },
     "output": {
         "directory": Option(None, "output directory, relative to the scene", "text",
                             auto="results/<scene name>"),
@@ -131,7 +150,7 @@ def _method_options(method: str):
 
 
 TABLES = ("system", "barriers", "study", "averaging", "fem", "montecarlo", "initial",
-          "sweep", "output")
+          "first_passage", "sweep", "output")
 
 
 def table_keys(table: str) -> dict[str, Option]:
@@ -174,6 +193,7 @@ class Scene:
     output_dir: Path
     formats: tuple[str, ...]
     source: dict[str, Any] = field(default_factory=dict, repr=False)
+    first_passage: dict[str, Any] | None = None
 
     @property
     def transient(self) -> bool:
@@ -331,13 +351,31 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     elif ini:
         raise SceneError("initial: only used with study.times (a transient scene)",
                          name="initial")
+    quantities = study.get("quantities", STUDY_KEYS["study"]["quantities"].default)
+    if times is not None and set(quantities) & set(STATIONARY_ONLY):
+        raise SceneError(f"study.quantities: {sorted(set(quantities) & set(STATIONARY_ONLY))} "
+                         "are stationary only; remove them or study.times",
+                         name="study.quantities")
+    fp = clean["first_passage"]
+    if "first_passage" in quantities:
+        if fp.get("energy") is None:
+            raise SceneError("first_passage.energy: required key is missing (the quantity "
+                             "\"first_passage\" needs the critical energy H_c)",
+                             name="first_passage.energy")
+        fp = {"energy": fp["energy"], "start": fp.get("start", (0.0, 0.0)),
+              "times": fp.get("times")}
+    elif fp:
+        raise SceneError("first_passage: only used with the quantity \"first_passage\" in "
+                         "study.quantities", name="first_passage")
+    else:
+        fp = None
     scene_name = study.get("name") or name
     out = clean["output"].get("directory")
     out_dir = Path(out) if out else Path("results") / safe_name(scene_name)
     if base is not None and not out_dir.is_absolute() and out:
         out_dir = base / out_dir
     return Scene(name=scene_name, system=system, methods=methods,
-                 quantities=study.get("quantities", STUDY_KEYS["study"]["quantities"].default),
+                 quantities=quantities, first_passage=fp,
                  times=times, numerics=numerics, initial=init, sweep=sweep,
                  output_dir=out_dir,
                  formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
@@ -358,6 +396,8 @@ def check_scene(scene: Scene) -> list[dict[str, Any]]:
     out = []
     for params, system in scene.points():
         costs = {}
+        if scene.first_passage is not None:
+            _check_first_passage(scene, params, system)
         for method in scene.methods:
             try:
                 costs[method] = plan(scene, method, system)
@@ -369,6 +409,19 @@ def check_scene(scene: Scene) -> list[dict[str, Any]]:
                 raise SceneError(exc.keyed(key, at), name=key) from None
         out.append({"parameters": params, "costs": costs})
     return out
+
+
+def _check_first_passage(scene: Scene, params: dict, system: VibroImpactSystem) -> None:
+    """The [first_passage] energy and start on this point's system."""
+    from .first_passage import check_energy, parse_start
+    at = f" (at {_label(params)})" if params else ""
+    fp = scene.first_passage
+    try:
+        energy = check_energy("first_passage", system, fp["energy"])
+        parse_start("first_passage", system, fp["start"], energy)
+    except InputError as exc:
+        key = f"first_passage.{exc.name}"
+        raise SceneError(exc.keyed(key, at), name=key) from None
 
 
 def _scene_key(method: str, exc: InputError) -> str:
