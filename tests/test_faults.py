@@ -255,7 +255,8 @@ def test_read_only_output_directory(tmp_path):
 
 
 def test_two_runs_into_one_directory_never_mix(tmp_path):
-    first = scene(tmp_path, t_sample=2000.0, r=(0.5, 0.6, 0.7), name="a.toml")
+    # long enough (~3 s a point) that the second command starts while the first runs
+    first = scene(tmp_path, t_sample=12000.0, r=(0.5, 0.6, 0.7), name="a.toml")
     second = scene(tmp_path, t_sample=100.0, r=(0.9,), name="b.toml")
     out = tmp_path / "out"
     a = start(["run", str(first), "--out", str(out), "--workers", "1", "--quiet"])
