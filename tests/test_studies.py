@@ -49,6 +49,10 @@ def test_averaging_study(tmp_path):
     # the error grows as r falls (1 − r⁴ no longer small)
     e = [abs(cells[(r, 0.025)]["rel_E_H"]) for r in doc["r"]]
     assert all(a < b for a, b in zip(e, e[1:]))
+    # reliability: at r = 1 averaging's τ is close to FE's; its error grows as r falls
+    assert abs(cells[(1.0, 0.025)]["rel_tau"]) < 0.02
+    t = [abs(cells[(r, 0.025)]["rel_tau"]) for r in doc["r"]]
+    assert t[-1] > t[0] and all(c["tau_fem"] > 0 for c in doc["cells"] if "error" not in c)
 
 
 def test_transient_convergence_study_on_the_packet():

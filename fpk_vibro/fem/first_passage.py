@@ -128,7 +128,7 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     t0 = time.perf_counter()
     mesh, box, absorbing = safe_set_mesh(system, H_c, nx, ny)
     basis = skfem.CellBasis(mesh, element_for(mesh, degree), intorder=quadrature_order(degree))
-    L, M = assemble(box, basis)
+    L, M = assemble(box, basis, only_walls=True)
     unit = np.asarray(M.sum(axis=0)).ravel()
     fixed = basis.get_dofs(np.flatnonzero(absorbing)).all()
     free = np.setdiff1d(np.arange(basis.N), fixed)

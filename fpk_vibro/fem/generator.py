@@ -71,8 +71,8 @@ def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
     return Domain(x0, x1, y1, (Wall(x0, rl, -1), Wall(x1, rr, +1)))
 
 
-def assemble(system: VibroImpactSystem, basis: skfem.CellBasis
-             ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+def assemble(system: VibroImpactSystem, basis: skfem.CellBasis, *,
+             only_walls: bool = False) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """General 2-D assembly of (L, M) on any strip mesh (module docstring).
 
     Parameters
@@ -80,6 +80,9 @@ def assemble(system: VibroImpactSystem, basis: skfem.CellBasis
     system : VibroImpactSystem
     basis : skfem.CellBasis
         Scalar Lagrange basis on a mesh of the strip (walls at its x-extremes).
+    only_walls : bool
+        Couple only the system's walls, not the elastic walls of truncated ends (for
+        a caller that fixes the values there, e.g. an absorbing end).
 
     Returns
     -------
@@ -97,7 +100,10 @@ def assemble(system: VibroImpactSystem, basis: skfem.CellBasis
     if s.D2 != 0:
         L = L + skfem.asm(forms.diffusion_parametric, basis, D2=s.D2)
     deg = _degree(basis.elem)
+    real = {"left": system.left, "right": system.right}
     for wall in dom.walls:
+        if only_walls and real["left" if wall.side < 0 else "right"] is None:
+            continue           # a truncated end the caller makes absorbing
         L = L - coupling_matrix(basis, wall, dom.y_max, 2 * deg + 1)
     M = skfem.asm(forms.mass, basis)
     return L.tocsr(), M.tocsr()
