@@ -98,8 +98,9 @@ def test_not_a_system(module, mode, system):
 
 MODEL_BAD = [dict(a=HUGE), dict(a="1"), dict(b=float("nan")), dict(c=-1.0), dict(c=True),
              dict(D1=0.0), dict(D1=-HUGE), dict(D2=float("inf")), dict(r=1.5), dict(r=-0.1),
-             dict(delta=0.0), dict(delta=None), dict(delta="0.6"), dict(barriers="left"),
-             dict(barriers=None), dict(b=-0.2, barriers="right"), dict(c=0.0, r=1.0)]
+             dict(delta=0.0), dict(delta=None), dict(delta="0.6"), dict(barriers="above"),
+             dict(barriers=None), dict(b=-0.2, barriers="right"), dict(b=-0.2, barriers="left"),
+             dict(c=0.0, r=1.0)]
 
 
 @pytest.mark.parametrize("kw", MODEL_BAD, ids=repr)
@@ -107,7 +108,7 @@ def test_bad_model_field(kw):
     with pytest.raises(ValueError) as exc:
         VibroImpactSystem.paper(**kw)
     _one_line(exc, "VibroImpactSystem:", next(iter(kw)) if next(iter(kw)) != "barriers" or
-              kw["barriers"] in ("left", None) else "b")
+              kw["barriers"] in ("above", None) else "b")
 
 
 def _strings(n, rng):
