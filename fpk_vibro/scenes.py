@@ -39,7 +39,7 @@ METHODS = ("averaging", "fem", "montecarlo", "exact")
 QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
 #: Quantities of a stationary scene only.
 STATIONARY_ONLY = ("impacts", "first_passage")
-FORMATS = ("json", "npz", "png", "vtu")
+FORMATS = ("json", "npz", "png", "vtu", "nc")
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
              "right.position", "right.r")
 
@@ -369,6 +369,14 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                          "study.quantities", name="first_passage")
     else:
         fp = None
+    formats = clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default)
+    if "nc" in formats:
+        try:
+            import h5netcdf  # noqa: F401
+            import xarray  # noqa: F401
+        except ImportError:
+            raise SceneError("output.formats: \"nc\" (netCDF) needs xarray and h5netcdf: "
+                             "pip install 'fpk_vibro[data]'", name="output.formats") from None
     scene_name = study.get("name") or name
     out = clean["output"].get("directory")
     out_dir = Path(out) if out else Path("results") / safe_name(scene_name)

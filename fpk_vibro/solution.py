@@ -89,6 +89,13 @@ class Solution(abc.ABC):
         """Density of the speed u ≥ 0 just before an impact on ``wall``."""
         raise NotImplementedError(f"{type(self).__name__} gives no impact-speed density")
 
+    def to_xarray(self, grids: dict | None = None):
+        """The densities on their grids, the moments and the provenance as an
+        ``xarray.Dataset`` (:func:`fpk_vibro.labelled.solution_dataset`); write it with
+        ``ds.to_netcdf(path, engine="h5netcdf")``."""
+        from .labelled import solution_dataset
+        return solution_dataset(self, grids)
+
     def mean_x(self) -> float:
         """E[x] = ∫ x p(x) dx: zero for walls at ±Δ, not for asymmetric walls.
 

@@ -1,0 +1,195 @@
+"""Labelled data: solutions and runs as xarray Datasets and pandas DataFrames.
+
+``Solution.to_xarray()`` gives the densities of one solution on their grids (H, x, y
+and the joint (x, y) grid) with the moments and the provenance (system, method,
+package version, options, seed) as attributes; :func:`run_dataset` gathers a whole
+run (``results.json`` and ``densities.npz``) into one Dataset with the dimensions
+``point``, ``method`` and, for transient scenes, ``time``; :func:`moments_frame`
+gives a run's moments as a tidy DataFrame.  Datasets are written as netCDF-4 through
+h5netcdf (on the h5py the package already uses).
+
+xarray, pandas and h5netcdf are the optional ``data`` extra
+(``pip install 'fpk_vibro[data]'``): the solvers do not need them.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["solution_dataset", "run_dataset", "moments_frame", "NETCDF_ENGINE"]
+
+#: netCDF engine of xarray used for every file written here.
+NETCDF_ENGINE = "h5netcdf"
+
+
+def _xarray():
+    try:
+        import xarray
+    except ImportError:
+        raise ImportError("labelled data needs xarray: pip install 'fpk_vibro[data]' "
+                          "(xarray, h5netcdf)") from None
+    return xarray
+
+
+def _attr(value: Any) -> Any:
+    """A value netCDF can hold as an attribute (numbers, strings; the rest as JSON)."""
+    if isinstance(value, (bool, np.bool_)):
+        return int(value)
+    if isinstance(value, (int, float, str, np.integer, np.floating)):
+        return value
+    return json.dumps(value, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+
+
+def solution_dataset(sol, grids: dict[str, Any] | None = None):
+    """The densities, moments and provenance of ``sol`` as an ``xarray.Dataset``.
+
+    Parameters
+    ----------
+    sol : fpk_vibro.Solution
+    grids : dict, optional
+        ``{"energy": H, "x": x, "y": y, "joint": (x, y)}``; default the grids of a
+        scene run (:func:`fpk_vibro.runner.grids_for`).
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables ``pdf_energy(H)``, ``pdf_x(x)``, ``pdf_y(y)``, ``pdf_joint(x_joint,
+        y_joint)`` and one scalar per moment (``E_H``, ...); attributes ``method``,
+        ``system`` (JSON), ``fpk_vibro_version``, ``time`` (transients) and the
+        scalar entries of ``sol.info``.
+    """
+    xr = _xarray()
+    from . import __version__
+    from .runner import grids_for
+    g = grids or grids_for(sol.system, sol)
+    data: dict[str, Any] = {}
+    try:
+        data["pdf_energy"] = (("H",), sol.pdf_energy(g["energy"]))
+    except ValueError:            # e.g. FE p(H) where it does not apply
+        pass
+    data["pdf_x"] = (("x",), sol.pdf_x(g["x"]))
+    data["pdf_y"] = (("y",), sol.pdf_y(g["y"]))
+    gx, gy = g["joint"]
+    data["pdf_joint"] = (("x_joint", "y_joint"), sol.pdf_joint(gx[:, None], gy[None, :]))
+    for k, v in sol.moments().items():
+        data[k] = ((), float(v))
+    if hasattr(sol, "moments_se"):
+        for k, v in sol.moments_se().items():
+            data[k + "_se"] = ((), float(v))
+    coords = {"H": g["energy"], "x": g["x"], "y": g["y"], "x_joint": gx, "y_joint": gy}
+    ds = xr.Dataset(data, coords=coords)
+    attrs = {"method": sol.kind, "system": sol.system.to_json(),
+             "fpk_vibro_version": __version__}
+    if getattr(sol, "time", None) is not None:
+        attrs["time"] = float(sol.time)
+    info = getattr(sol, "info", None)
+    if isinstance(info, dict):
+        attrs.update({f"info_{k}": _attr(v) for k, v in info.items()
+                      if v is not None and isinstance(v, (bool, int, float, str, np.integer,
+                                                          np.floating))})
+    for attr in ("seed_entropy", "n_paths", "dt"):
+        v = getattr(sol, attr, None)
+        if v is not None and not callable(v):
+            attrs[attr] = _attr(v)
+    ds.attrs.update(attrs)
+    ds["pdf_energy" if "pdf_energy" in ds else "pdf_x"].attrs["long_name"] = "probability density"
+    for name, unit in (("H", "J/kg"), ("x", "m"), ("y", "m/s"), ("x_joint", "m"),
+                       ("y_joint", "m/s")):
+        ds[name].attrs["units"] = unit
+    return ds
+
+
+def _records(out_dir: Path) -> dict[str, Any]:
+    path = Path(out_dir) / "results.json"
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: not a readable results file ({exc})") from None
+
+
+def run_dataset(out_dir: str | Path):
+    """A run's results (``out_dir/results.json`` and ``densities.npz``) as one Dataset.
+
+    Dimensions ``point`` (with the swept parameters as coordinates), ``method`` and,
+    for transient scenes, ``time``; moments as ``E_H(point, method[, time])`` with
+    ``*_se`` for Monte Carlo (NaN where a method has none); densities, where the run
+    wrote them, as ``pdf_<q>(point, method, <q>_index)`` with their grids as the
+    coordinate ``<q>_grid(point, <q>_index)`` (grids differ between points).
+    """
+    xr = _xarray()
+    doc = _records(out_dir)
+    points = doc["points"]
+    methods = sorted({m for p in points for m in p.get("methods", {})})
+    transient = not doc.get("stationary", True)
+    times = sorted({t for p in points for e in p.get("methods", {}).values()
+                    for t in e.get("times", [])}) if transient else []
+    keys = sorted({k for p in points for e in p.get("methods", {}).values()
+                   for rec in (e.get("at") or [e]) for k in rec.get("moments", {})})
+    shape = (len(points), len(methods)) + ((len(times),) if transient else ())
+    dims = ("point", "method") + (("time",) if transient else ())
+    data: dict[str, Any] = {}
+    for key in keys:
+        for suffix, field in (("", "moments"), ("_se", "moments_se")):
+            arr = np.full(shape, np.nan)
+            for i, p in enumerate(points):
+                for j, m in enumerate(methods):
+                    e = p.get("methods", {}).get(m)
+                    if e is None:
+                        continue
+                    recs = e.get("at") or [e]
+                    for k, rec in enumerate(recs):
+                        v = rec.get(field, {}).get(key)
+                        if v is not None:
+                            arr[(i, j, k) if transient else (i, j)] = v
+            if suffix == "" or np.isfinite(arr).any():
+                data[key + suffix] = (dims, arr)
+    params = sorted({k for p in points for k in p.get("parameters", {})})
+    coords: dict[str, Any] = {"point": np.arange(len(points)), "method": methods,
+                              "status": ("point", [p.get("status", "") for p in points])}
+    for k in params:
+        coords[f"param_{k}"] = ("point", [p.get("parameters", {}).get(k, np.nan) for p in points])
+    if transient:
+        coords["time"] = np.asarray(times, dtype=float)
+    data.update(_densities(Path(out_dir), points, methods))
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update({"name": doc.get("name", ""), "fpk_vibro_version": doc.get("fpk_vibro_version", ""),
+                     "status": doc.get("status", ""), "scene": _attr(doc.get("scene", {}))})
+    return ds
+
+
+def _densities(out_dir: Path, points: list, methods: list[str]) -> dict[str, Any]:
+    """pdf_<q>(point, method, <q>_index) and <q>_grid(point, <q>_index) from densities.npz."""
+    f = out_dir / "densities.npz"
+    if not f.exists():
+        return {}
+    out: dict[str, Any] = {}
+    with np.load(f) as npz:
+        for q in ("energy", "x", "y"):
+            grids = {i: npz[f"p{i}.{m}.{q}.grid"] for i in range(len(points)) for m in methods
+                     if f"p{i}.{m}.{q}.grid" in npz.files}
+            if not grids:
+                continue
+            n = max(g.size for g in grids.values())
+            grid = np.full((len(points), n), np.nan)
+            pdf = np.full((len(points), len(methods), n), np.nan)
+            for i, g in grids.items():
+                grid[i, :g.size] = g
+                for j, m in enumerate(methods):
+                    key = f"p{i}.{m}.{q}.pdf"
+                    if key in npz.files:
+                        pdf[i, j, :g.size] = npz[key]
+            out[f"{q}_grid"] = (("point", f"{q}_index"), grid)
+            out[f"pdf_{q}"] = (("point", "method", f"{q}_index"), pdf)
+    return out
+
+
+def moments_frame(out_dir: str | Path):
+    """A run's moments as a ``pandas.DataFrame``: one row per point, method (and time),
+    a column per moment and its standard error (``*_se``, Monte Carlo), and the swept
+    parameters (``param_*``) and the point's status."""
+    ds = run_dataset(out_dir)
+    moments = [v for v in ds.data_vars if not v.startswith("pdf_") and not v.endswith("_grid")]
+    return ds[moments].to_dataframe().reset_index()
