@@ -305,11 +305,6 @@ def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]
     if signum is not None:
         doc["signal"] = signal.Signals(signum).name
     atomic_json(out_dir / "results.json", doc)
-    if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
-        from .io import atomic_files
-        from .labelled import NETCDF_ENGINE, run_dataset
-        atomic_files(out_dir / "results.nc", lambda p: run_dataset(out_dir).to_netcdf(
-            p, engine=NETCDF_ENGINE))
     if "npz" in scene.formats:
         merged: dict[str, np.ndarray] = {}
         for r in listed:
@@ -325,6 +320,11 @@ def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]
                     merged, listed, q, out_dir / f"sweep_{q}.png", title=scene.name).name
                     for q in ("energy", "x", "y") if q in scene.quantities]
                 atomic_json(out_dir / "results.json", doc)
+    if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
+        from .io import atomic_files
+        from .labelled import NETCDF_ENGINE, run_dataset
+        atomic_files(out_dir / "results.nc", lambda p: run_dataset(out_dir).to_netcdf(
+            p, engine=NETCDF_ENGINE))
     return doc
 
 
