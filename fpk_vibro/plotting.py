@@ -1,4 +1,11 @@
-"""Figures of response densities (matplotlib, written to files; no screen needed)."""
+"""Figures of response densities (matplotlib).
+
+Nothing here touches pyplot or the matplotlib backend: figures are bare
+``matplotlib.figure.Figure`` objects written to files, and the public ``plot_*``
+functions draw into an ``ax`` the caller gives (a notebook's, say) or a new one, and
+return it.  Conventions: methods named in words; Monte Carlo as points with ±1
+standard-error bars everywhere; axis labels with units; walls drawn where they are.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,25 +15,32 @@ import numpy as np
 
 from .solution import Solution
 
-__all__ = ["plot_energy_pdfs"]
+__all__ = ["plot_energy_pdfs", "plot_density", "plot_joint", "METHOD_NAMES"]
+
+#: How figures name the methods.
+METHOD_NAMES = {"exact": "exact (Gibbs)", "averaging": "stochastic averaging",
+                "fem": "finite elements", "montecarlo": "Monte Carlo"}
+
+
+class _Figures:
+    """``subplots`` like pyplot's, on a bare Figure: no backend is chosen or changed."""
+
+    @staticmethod
+    def subplots(*args, figsize=None, dpi=None, **kw):
+        from matplotlib.figure import Figure
+        fig = Figure(figsize=figsize, dpi=dpi, layout="constrained")
+        return fig, fig.subplots(*args, **kw)
 
 
 def _pyplot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+    return _Figures
 
 
 def _save(fig, path) -> Path:
     """Lay out, write atomically (creating the directory) and close a figure."""
     from .io import atomic_write
-    fig.tight_layout()
     path = Path(path)
-    try:
-        atomic_write(path, lambda fh: fig.savefig(fh, format=path.suffix.lstrip(".") or "png"))
-    finally:
-        _pyplot().close(fig)
+    atomic_write(path, lambda fh: fig.savefig(fh, format=path.suffix.lstrip(".") or "png"))
     return path
 
 
@@ -82,8 +96,9 @@ def _draw_walls(ax, system) -> None:
         ax.axvline(w.position, color="0.35", lw=2.2, zorder=5)
         ax.annotate(f"r = {w.r:g}", (w.position, 1.0), xycoords=("data", "axes fraction"),
                     ha="left" if side == "left" else "right", va="top", fontsize=7,
-                    color="0.3", xytext=(3 if side == "left" else -3, -2),
-                    textcoords="offset points")
+                    color="0.2", xytext=(3 if side == "left" else -3, -2),
+                    textcoords="offset points",
+                    bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1})
 
 
 _LABELS = {"energy": (r"energy $H$", r"$p(H)$"), "x": (r"displacement $x$", r"$p(x)$"),
@@ -92,59 +107,147 @@ _STYLE = {"exact": dict(color="k", ls="--", lw=1.2), "averaging": dict(color="C0
           "fem": dict(color="C3", lw=1.4)}
 
 
+_UNITS = {"energy": (r"energy $H$ (J/kg)", r"$p(H)$ (kg/J)"),
+          "x": (r"displacement $x$ (m)", r"$p(x)$ (1/m)"),
+          "y": (r"velocity $y$ (m/s)", r"$p(y)$ (s/m)")}
+
+
+def _reference(solutions: dict) -> str:
+    """The method others are compared with: the exact density, else FE, else the first."""
+    for m in ("exact", "fem"):
+        if m in solutions:
+            return m
+    return next(iter(solutions))
+
+
+def plot_density(solutions: dict, quantity: str, grid: np.ndarray, *, ax=None,
+                 log: bool = False, difference_from: str | None = None):
+    """One marginal density of several methods on ``ax`` (created if None).
+
+    Parameters
+    ----------
+    solutions : dict
+        method name → Solution (Monte Carlo drawn as its histogram, ±1 SE).
+    quantity : {"energy", "x", "y"}
+    grid : ndarray
+        Where the curves are evaluated.
+    log : bool
+        Logarithmic density axis (tails).
+    difference_from : str, optional
+        Draw each method minus this method's density instead of the densities.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    if ax is None:
+        _, ax = _Figures.subplots(figsize=(6.0, 4.2), dpi=110)
+    ref = solutions.get(difference_from) if difference_from else None
+    pdf = "pdf_" + quantity
+    for method, sol in solutions.items():
+        name = METHOD_NAMES.get(method, method)
+        if method == "montecarlo":
+            edges, dens, se = sol.histogram(quantity)
+            mid = 0.5 * (edges[1:] + edges[:-1])
+            keep = (mid >= grid[0]) & (mid <= grid[-1]) & (dens > 0 if log else True)
+            base = getattr(ref, pdf)(mid[keep]) if ref is not None else 0.0
+            ax.errorbar(mid[keep], dens[keep] - base, yerr=se[keep], fmt="o", ms=2.5,
+                        mfc="none", color="C2", capsize=1.2, lw=0.7, label=name + " (±1 SE)")
+        elif method != difference_from or ref is None:
+            base = getattr(ref, pdf)(grid) if ref is not None else 0.0
+            vals = getattr(sol, pdf)(grid) - base
+            if log:
+                vals = np.where(vals > 0, vals, np.nan)
+            ax.plot(grid, vals, label=name, **_STYLE.get(method, {}))
+    if ref is not None:
+        ax.axhline(0.0, color="0.3", lw=0.8)
+    if log:
+        ax.set_yscale("log")
+    system = next(iter(solutions.values())).system
+    if quantity == "energy":
+        for gw, label in _wall_energies(system):
+            if gw < grid[-1]:
+                ax.axvline(gw, color="0.6", ls=":", lw=1)
+                ax.annotate(label, (gw, 1.0), xycoords=("data", "axes fraction"), va="top",
+                            fontsize=7, color="0.4", xytext=(2, -2), textcoords="offset points")
+    if quantity == "x":
+        _draw_walls(ax, system)
+    xl, yl = _UNITS[quantity]
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl if ref is None else f"difference from {METHOD_NAMES.get(difference_from, difference_from)}")
+    return ax
+
+
+def plot_joint(solutions: dict, gx: np.ndarray, gy: np.ndarray, *, axes=None, vmax=None):
+    """p(x, y) of each method on one shared colour scale from 0, walls drawn; returns
+    the axes (one per method, created if None) and the contour set of the last."""
+    if axes is None:
+        _, ax_row = _Figures.subplots(1, len(solutions), figsize=(4.2 * len(solutions), 3.8),
+                                      dpi=110, squeeze=False)
+        axes = ax_row[0]
+    P = {m: np.maximum(s.pdf_joint(gx[None, :], gy[:, None]), 0.0) for m, s in solutions.items()}
+    top = vmax or max(float(p.max()) for p in P.values())
+    levels = np.linspace(0.0, top, 15)
+    cs = None
+    for ax, (method, p) in zip(axes, P.items()):
+        cs = ax.contourf(gx, gy, p, levels=levels, cmap="viridis", extend="max")
+        _draw_walls(ax, solutions[method].system)
+        ax.set_xlabel(r"displacement $x$ (m)")
+        ax.set_ylabel(r"velocity $y$ (m/s)")
+        ax.set_title(METHOD_NAMES.get(method, method), fontsize=9)
+    return axes, cs
+
+
 def scene_figures(solutions: dict, grids: dict, quantities, out_dir, prefix: str,
                   title: str = "") -> list[Path]:
-    """Figures of a scene point: one per 1-D quantity with every method overlaid
-    (Monte Carlo as histogram points with ±1 standard-error bars), and the joint
-    densities as contour plots side by side.  Returns the files written."""
-    plt = _pyplot()
+    """Figures of a scene point, written to files; returns them.
+
+    Per 1-D quantity three panels: every method on a linear axis, on a logarithmic
+    axis (the tails, where averaging and FE part) and the difference from the
+    reference method (exact, else FE).  The joint densities side by side on one
+    colour scale from 0, with the difference maps from the reference.
+    """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for q in [q for q in quantities if q in _LABELS]:
-        fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
+    ref = _reference(solutions)
+    compare = len(solutions) > 1
+    for q in [q for q in quantities if q in _UNITS]:
+        n = 3 if compare else 2
+        fig, axes = _Figures.subplots(1, n, figsize=(5.0 * n, 3.9), dpi=110)
         g = grids[q]
-        for method, sol in solutions.items():
-            if method == "montecarlo":
-                edges, dens, se = sol.histogram(q)
-                mid = 0.5 * (edges[1:] + edges[:-1])
-                keep = (mid >= g[0]) & (mid <= g[-1])
-                ax.errorbar(mid[keep], dens[keep], yerr=se[keep], fmt="o", ms=3, mfc="none",
-                            color="C2", capsize=1.5, lw=0.8, label="Monte Carlo (±1 SE)")
-            else:
-                ax.plot(g, getattr(sol, "pdf_" + q)(g), label=method, **_STYLE.get(method, {}))
-        sysm = next(iter(solutions.values())).system
-        if q == "energy":
-            for gw, label in _wall_energies(sysm):
-                if gw < g[-1]:
-                    ax.axvline(gw, color="0.6", ls=":", lw=1, label=label)
-        if q == "x":
-            _draw_walls(ax, sysm)
-        xl, yl = _LABELS[q]
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
-        ax.set_title(title, fontsize=9)
-        ax.legend(frameon=False, fontsize=8)
+        plot_density(solutions, q, g, ax=axes[0])
+        plot_density(solutions, q, g, ax=axes[1], log=True)
+        axes[1].set_title("logarithmic density axis", fontsize=8)
+        if compare:
+            plot_density(solutions, q, g, ax=axes[2], difference_from=ref)
+        axes[0].legend(frameon=False, fontsize=7)
+        fig.suptitle(title, fontsize=9)
         written.append(_save(fig, out_dir / f"{prefix}_{q}.png"))
     if "joint" in quantities:
         gx, gy = grids["joint"]
         n = len(solutions)
-        fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.8), dpi=110, squeeze=False)
-        for ax, (method, sol) in zip(axes[0], solutions.items()):
-            P = sol.pdf_joint(gx[None, :], gy[:, None])
-            cs = ax.contourf(gx, gy, P, levels=14, cmap="viridis")
-            fig.colorbar(cs, ax=ax, label=r"$p(x, y)$")
-            _draw_walls(ax, sol.system)
-            ax.set_xlabel(r"displacement $x$")
-            ax.set_ylabel(r"velocity $y$")
-            ax.set_title(method, fontsize=9)
+        others = [m for m in solutions if m != ref] if compare else []
+        fig, axes = _Figures.subplots(1 + bool(others), n, figsize=(4.2 * n, 3.8 * (1 + bool(others))),
+                                      dpi=110, squeeze=False)
+        _, cs = plot_joint(solutions, gx, gy, axes=axes[0])
+        fig.colorbar(cs, ax=list(axes[0]), label=r"$p(x, y)$ (s/m²)")
+        if others:
+            P0 = solutions[ref].pdf_joint(gx[None, :], gy[:, None])
+            D = {m: solutions[m].pdf_joint(gx[None, :], gy[:, None]) - P0 for m in others}
+            lim = max(float(np.abs(d).max()) for d in D.values()) or 1.0
+            for ax, (m, d) in zip(axes[1], D.items()):
+                im = ax.contourf(gx, gy, d, levels=np.linspace(-lim, lim, 17), cmap="RdBu_r")
+                _draw_walls(ax, solutions[m].system)
+                ax.set_title(f"{METHOD_NAMES.get(m, m)} − {METHOD_NAMES.get(ref, ref)}", fontsize=9)
+                ax.set_xlabel(r"displacement $x$ (m)")
+                ax.set_ylabel(r"velocity $y$ (m/s)")
+            for ax in axes[1][len(D):]:
+                ax.set_visible(False)
+            fig.colorbar(im, ax=list(axes[1]), label="difference of $p(x, y)$")
         fig.suptitle(title, fontsize=9)
         written.append(_save(fig, out_dir / f"{prefix}_joint.png"))
     return written
-
-
-_NAMES = {"exact": "exact (Gibbs)", "averaging": "stochastic averaging",
-          "fem": "finite elements", "montecarlo": "Monte Carlo"}
 
 
 def impact_speeds(solutions: dict, path, *, title: str = "") -> Path:
@@ -166,7 +269,7 @@ def impact_speeds(solutions: dict, path, *, title: str = "") -> Path:
                     continue
                 mid = 0.5 * (edges[1:] + edges[:-1])
                 ax.errorbar(mid, dens, yerr=se, fmt="o", ms=3, mfc="none", color="C2",
-                            capsize=1.5, lw=0.8, label=_NAMES[method] + " (±1 SE)")
+                            capsize=1.5, lw=0.8, label=METHOD_NAMES[method] + " (±1 SE)")
                 top = max(top, float(edges[-1]))
         u = np.linspace(0.0, top or 3.0 * max(
             v.impacts()[side]["mean_speed"] for m, v in solutions.items()
@@ -175,7 +278,7 @@ def impact_speeds(solutions: dict, path, *, title: str = "") -> Path:
             if method == "montecarlo":
                 continue
             try:
-                ax.plot(u, sol.impact_speed_pdf(side, u), label=_NAMES.get(method, method),
+                ax.plot(u, sol.impact_speed_pdf(side, u), label=METHOD_NAMES.get(method, method),
                         **_STYLE.get(method, {}))
             except NotImplementedError:
                 pass
@@ -195,7 +298,7 @@ def reliability(passages: dict, path, *, title: str = "") -> Path:
     for method, fp in passages.items():
         if fp.survival_band is not None:
             ax.fill_between(fp.times, *fp.survival_band, color="C2", alpha=0.25, lw=0)
-        ax.plot(fp.times, fp.survival, label=f"{_NAMES.get(method, method)}: "
+        ax.plot(fp.times, fp.survival, label=f"{METHOD_NAMES.get(method, method)}: "
                 f"τ = {fp.mean:.4g}" + (f" ± {fp.mean_se:.2g}" if fp.mean_se else ""),
                 **_STYLE.get(method, {"color": "C2"}))
     ax.set_xlim(0, t_end)
@@ -232,64 +335,6 @@ def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") ->
     return _save(fig, path)
 
 
-def work_precision(doc: dict, path) -> Path:
-    """Error against wall time, log-log, one line per method/setting family."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
-    groups: dict[str, list] = {}
-    for r in doc["rows"]:
-        label = (r["method"].replace("fem", f"FE Q{r['degree']}") if "degree" in r
-                 else r["method"].replace("fem", "FE"))
-        groups.setdefault(label, []).append(r)
-    for i, (label, rows) in enumerate(groups.items()):
-        rows = sorted(rows, key=lambda r: r["seconds"])
-        # Monte Carlo settings vary paths, time and dt: points, not a curve
-        ax.loglog([r["seconds"] for r in rows], [max(r["error"], 1e-16) for r in rows],
-                  marker="os^dv"[i % 5], label=label,
-                  ls="none" if label == "montecarlo" else "-")
-    est = doc["truth"].get("error_estimate", 0.0)
-    if est:
-        ax.axhline(est, color="0.5", ls=":", lw=1, label="truth's error estimate")
-    for tgt in (1e-2, 1e-3, 1e-4):
-        ax.axhline(tgt, color="0.85", lw=0.8, zorder=0)
-    ax.set_xlabel("wall time (s)")
-    ax.set_ylabel("max relative error of E[H], E[x²], E[y²]")
-    ax.set_title(f"work–precision (truth: {doc['truth']['source']})", fontsize=9)
-    ax.legend(frameon=False, fontsize=8)
-    return _save(fig, path)
-
-
-def averaging_map(doc: dict, path) -> Path:
-    """Heat maps of the averaging error over (r, c), one row per noise level:
-    the L1 distance of p(H) and |E[H] error| against FE."""
-    plt = _pyplot()
-    rs, cs, noise = doc["r"], doc["c"], doc.get("noise", [1.0])
-    fig, axes = plt.subplots(len(noise), 2, figsize=(10, 4.0 * len(noise)), dpi=110,
-                             squeeze=False)
-    for row, q in zip(axes, noise):
-        grid = {k: np.full((len(cs), len(rs)), np.nan) for k in ("L1_pH", "rel_E_H")}
-        for cell in doc["cells"]:
-            if "error" in cell or cell.get("noise", 1.0) != q:
-                continue
-            i, j = cs.index(cell["c"]), rs.index(cell["r"])
-            grid["L1_pH"][i, j] = cell["L1_pH"]
-            grid["rel_E_H"][i, j] = 100 * abs(cell["rel_E_H"])
-        for ax, (key, title) in zip(row, (("L1_pH", "L1 distance of p(H), averaging vs FE"),
-                                          ("rel_E_H", "|E[H] error| of averaging (%)"))):
-            im = ax.imshow(grid[key], origin="lower", aspect="auto", cmap="magma_r")
-            ax.set_xticks(range(len(rs)), [f"{r:g}" for r in rs])
-            ax.set_yticks(range(len(cs)), [f"{c:g}" for c in cs])
-            ax.set_xlabel("restitution r")
-            ax.set_ylabel("damping c")
-            ax.set_title(f"{title}, noise ×{q:g}", fontsize=9)
-            for (i, j), v in np.ndenumerate(grid[key]):
-                if np.isfinite(v):
-                    ax.text(j, i, f"{v:.2g}", ha="center", va="center", fontsize=7,
-                            color="w" if v > np.nanmax(grid[key]) / 2 else "k")
-            fig.colorbar(im, ax=ax)
-    return _save(fig, path)
-
-
 def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str = "") -> Path:
     """One figure with a density of every sweep point and method (the paper's Fig. 3 style).
 
@@ -321,4 +366,44 @@ def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str
     ax.set_ylabel(yl)
     ax.set_title(title, fontsize=9)
     ax.legend(frameon=False, fontsize=7)
+    return _save(fig, path)
+
+
+def sweep_moments(points: list, path, *, keys=("E_H", "E_x2", "E_y2"), title: str = "") -> Path:
+    """Moments against the swept parameter, one line per method (Monte Carlo ±1 SE);
+    a two-parameter sweep gets one line per value of the second parameter."""
+    done = [p for p in points if p.get("status") == "done"]
+    params = list(done[0]["parameters"]) if done else []
+    if not params:
+        raise ValueError("sweep_moments: the run has no swept parameter")
+    first, second = params[0], (params[1] if len(params) > 1 else None)
+    methods = list(done[0]["methods"])
+    fig, axes = _Figures.subplots(1, len(keys), figsize=(4.6 * len(keys), 3.8), dpi=110,
+                                  squeeze=False)
+    groups = sorted({p["parameters"][second] for p in done}) if second else [None]
+    for ax, key in zip(axes[0], keys):
+        for mi, method in enumerate(methods):
+            for gi, gval in enumerate(groups):
+                sel = [p for p in done if second is None or p["parameters"][second] == gval]
+                sel.sort(key=lambda p: p["parameters"][first])
+                xs = np.array([p["parameters"][first] for p in sel])
+                rec = [p["methods"][method] for p in sel if method in p["methods"]]
+                if len(rec) != len(sel):
+                    continue
+                ys = np.array([r["moments"].get(key, np.nan) for r in rec])
+                label = METHOD_NAMES.get(method, method) + (f", {second} = {gval:g}" if second else "")
+                style = dict(_STYLE.get(method, {}))
+                style.setdefault("color", f"C{mi}")
+                style["alpha"] = 1.0 - 0.6 * gi / max(1, len(groups) - 1) if second else 1.0
+                if method == "montecarlo":
+                    se = np.array([r.get("moments_se", {}).get(key, np.nan) for r in rec])
+                    ax.errorbar(xs, ys, yerr=se, fmt="o", ms=3, mfc="none", capsize=2, lw=0.8,
+                                color="C2", alpha=style["alpha"], label=label + " (±1 SE)")
+                else:
+                    ax.plot(xs, ys, marker=".", label=label, **style)
+        ax.set_xlabel(first)
+        ax.set_ylabel({"E_H": r"$E[H]$ (J/kg)", "E_x2": r"$E[x^2]$ (m²)",
+                       "E_y2": r"$E[y^2]$ (m²/s²)"}.get(key, key))
+    axes[0][0].legend(frameon=False, fontsize=7)
+    fig.suptitle(title, fontsize=9)
     return _save(fig, path)

@@ -319,6 +319,10 @@ def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]
                 doc["figures"] = [plotting.sweep_overlay(
                     merged, listed, q, out_dir / f"sweep_{q}.png", title=scene.name).name
                     for q in ("energy", "x", "y") if q in scene.quantities]
+                if "moments" in scene.quantities and not scene.transient and any(
+                        r.get("status") == "done" for r in listed):
+                    doc["figures"].append(plotting.sweep_moments(
+                        listed, out_dir / "sweep_moments.png", title=scene.name).name)
                 atomic_json(out_dir / "results.json", doc)
     if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
         from .io import atomic_files

@@ -246,7 +246,7 @@ def averaging_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str
 
 def write_study(kind: str, doc: dict[str, Any], out: Path) -> list[Path]:
     """results JSON and the plot of a study; returns the files written."""
-    from . import plotting
+    from . import study_plots as plotting
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / f"{kind}.json", json.dumps(doc, indent=1, default=float))
     if kind == "convergence":
