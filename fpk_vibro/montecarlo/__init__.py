@@ -48,7 +48,12 @@ mean-square impact speed and the energy removed per unit time,
 (:meth:`MonteCarloSolution.impacts`).  For r = 1 and D2 = 0 (Gibbs density
 p ∝ exp(−c H/D1), velocity N(0, D1/c) independent of x) the rate at a wall is
 the flux p_X(x_w) E[y⁺] = p_X(x_w) sqrt(D1/c)/sqrt(2π), the mean impact speed
-sqrt(π D1/(2c)) and the mean square 2 D1/c; the tests check them.
+sqrt(π D1/(2c)) and the mean square 2 D1/c; the tests check them.  Asked for
+(``quantities`` including "impacts", never by default), every impact speed is also
+counted in a histogram per wall, from 0 to sqrt(2 (H_max − G(x_w))):
+:meth:`MonteCarloSolution.impact_speed_histogram` (edges, density, standard error
+between batches) and :meth:`MonteCarloSolution.impact_speed_pdf`; in the case above
+the density is Rayleigh, f(u) = (u/σ²) exp(−u²/(2σ²)), σ² = D1/c.
 
 Chattering and inelastic collapse (r below ~0.163, or r = 0): within one
 free-flight sub-step a path leaving a wall cannot return to it, so there are
@@ -73,6 +78,16 @@ from the spread between independent batches of paths.
 Compute only what is asked: no impact test without walls, no parametric term
 when D2 = 0, only requested histograms are accumulated.
 
+First passage
+-------------
+:func:`first_passage` runs paths from a point, a Gaussian or the stationary density
+(each conditioned on the safe set H < H_c) with this same step until H first
+reaches H_c, detecting crossings between step ends by a Brownian bridge of the
+velocity against the band |y| < sqrt(2 (H_c − G(x))); it returns the mean time ±
+its standard error, quantiles and the empirical reliability R(t) with a 95 %
+band (:mod:`._first_passage` has the measured bias against dt and the handling
+of paths censored at ``t_max``).
+
 Parallelism and reproducibility: paths are split into ``n_batches`` blocks,
 each with its own xoshiro256+ stream seeded by ``numpy.random.SeedSequence``;
 the blocks are shared out to a thread pool (``threads``, default
@@ -92,6 +107,12 @@ measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
   kernel/floor 0.53–0.55 by wall time and 0.51–0.54 by the thread's CPU time
   (medians of 9 back-to-back pairs, over six runs).  Two threads: 1.73–2.04×
   one thread (median of pairs; it depends on the other jobs' load).
+- first passage (benchmark part 4: paper r = 0.92, H_c = 0.498 from (0, 0), 16384
+  paths to exit; measured 2026-11-22 at load average 0.5–1.0): 1.6–1.7·10⁸
+  path-steps/s on one thread, 0.37–0.46 of the normals floor by wall time and
+  0.37–0.40 by CPU time (the stationary kernel's 0.49–0.53 in the same runs); two
+  threads 2.9–3.1·10⁸/s.  The extra cost is the monitor (H and the band |y| < Y(x),
+  one vectorised square root per path-step) and the bridge draws (~8 %).
 - cost per path-step relative to the normal alone (paired runs with parts
   switched off): the square root of the parametric noise ~9 %, sampling every
   T0/4 ~6 %, the impact paths ~3 %; the rest is the sweep's arithmetic and
@@ -112,7 +133,9 @@ measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
   cold numba cache (5.5–8.3 s wall with interpreter start), 1.4–2.4 s warm.
 """
 from ._engine import TransientRun, stationary, transient
+from ._first_passage import first_passage
 from .options import Options
-from .solution import QUANTITIES, MonteCarloSolution
+from .solution import ALL_QUANTITIES, QUANTITIES, MonteCarloSolution
 
-__all__ = ["Options", "stationary", "transient", "MonteCarloSolution", "TransientRun", "QUANTITIES"]
+__all__ = ["Options", "stationary", "transient", "first_passage", "MonteCarloSolution",
+           "TransientRun", "QUANTITIES", "ALL_QUANTITIES"]

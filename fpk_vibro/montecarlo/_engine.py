@@ -69,6 +69,23 @@ def _wall_statistics(system: VibroImpactSystem, wimp: np.ndarray, time: np.ndarr
     return out
 
 
+def _impact_speeds(system: VibroImpactSystem, hist: S.Histograms, wimp: np.ndarray,
+                   arrays: dict[str, np.ndarray]) -> dict[str, float]:
+    """Each wall's impact-speed density and its standard error between batches (into
+    ``arrays``); returns the fraction of impacts beyond the last bin per wall."""
+    overflow = {}
+    for side, _ in system.walls:
+        s = K.LEFT if side == "left" else K.RIGHT
+        edges = hist.edges[f"edges_u_{side}"]
+        n_b = wimp[:, s, K.W_N]
+        d, se = _ratio(hist.hu[:, s, :-1] / np.diff(edges), n_b)
+        arrays[f"density_u_{side}"] = np.nan_to_num(d, nan=0.0)   # never hit: 0 ± NaN
+        arrays[f"se_u_{side}"] = se
+        total = n_b.sum()
+        overflow[f"impacts_{side}"] = float(hist.hu[:, s, -1].sum() / total) if total else 0.0
+    return overflow
+
+
 def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
             imp: np.ndarray, xext: np.ndarray, dt: float, meta: dict[str, Any],
             wimp: np.ndarray) -> MonteCarloSolution:
@@ -88,6 +105,8 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
             vol = np.outer(np.diff(hist.edges[keys[0]]), np.diff(hist.edges[keys[1]]))
         d, s = _ratio(counts / vol, n_b)
         arrays[f"density_{q}"], arrays[f"se_{q}"] = d, s
+    overflow_u = _impact_speeds(system, hist, wimp, arrays) \
+        if "impacts" in meta["quantities"] else {}
     rate, rate_se = _ratio(imp[:, 0], imp[:, 1] * dt)
     mean_x, mean_x_se = _ratio(mom[:, K.M_X], n_b)
     total = float(n_b.sum())
@@ -98,7 +117,7 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
         mean_x=float(mean_x), mean_x_se=float(mean_x_se),
         overflow={q: float(mom[:, c].sum() / total) if total else 0.0
                   for q, c in (("energy", K.M_OVH), ("x", K.M_OVX), ("y", K.M_OVY),
-                               ("joint", K.M_OVJ)) if q in meta["quantities"]},
+                               ("joint", K.M_OVJ)) if q in meta["quantities"]} | overflow_u,
         x_seen=[float(xext[:, 0].min()), float(xext[:, 1].max())],
         scheme=SCHEME, dt=float(dt))
     return MonteCarloSolution(system, meta, arrays)
@@ -119,7 +138,7 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
     while done < n_steps:
         n = min(chunk, n_steps - done)
         K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
-                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls)
+                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -166,14 +185,20 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     seed : int, SeedSequence or None
         Same seed → bit-identical result whatever the number of threads.  None
         draws fresh entropy (recorded in ``solution.seed_entropy``).
-    quantities : sequence of {"energy", "x", "y", "joint"}
-        Histograms to accumulate (moments are always accumulated).
+    quantities : sequence of {"energy", "x", "y", "joint", "impacts"}
+        Histograms to accumulate (moments are always accumulated); default the four
+        of the state.  "impacts" (only when asked; needs a wall) counts the speed
+        just before every impact in a histogram per wall:
+        :meth:`~MonteCarloSolution.impact_speed_histogram`,
+        :meth:`~MonteCarloSolution.impact_speed_pdf`.
     bins : int or dict, default 100
         n → n bins for H, x, y and n//2 × n//2 for the joint histogram; or a dict
-        ``{quantity: count or equally spaced edges}`` (joint: a pair).  Default
+        ``{quantity: count or equally spaced edges}`` (joint: a pair; impacts: edges
+        from 0, shared by the walls).  Default
         ranges: x over the strip x_L..x_R, a side without wall cut at the reach of
         H_max (where G = H_max), H up to
-        H_max = max(1.5 × largest, 10 × mean) burned-in energy, y to ±sqrt(2 H_max).
+        H_max = max(1.5 × largest, 10 × mean) burned-in energy, y to ±sqrt(2 H_max),
+        the impact speed at wall w from 0 to sqrt(2 (H_max − G(x_w))).
     n_batches : int, default 32
     target_rse : float, default 0.005
         Relative standard error of E[H] at which an adaptive run stops.
@@ -306,7 +331,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     dt : float, optional
         Largest time step; default as in :func:`stationary`.
     seed, quantities, n_batches, max_impacts, progress, threads
-        As in :func:`stationary`.
+        As in :func:`stationary` ("impacts" excepted: stationary only).
     bins : int or dict, default 60
         As in :func:`stationary`; default ranges follow the ensemble at each time
         (H up to its largest value, so nothing overflows).

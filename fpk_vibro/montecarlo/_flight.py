@@ -11,6 +11,12 @@ sums of the impact speed u = |y_imp| and of u² (``W_*`` columns of the per-bloc
 wall statistics ``wimp[b, side, column]``, side 0 left, 1 right): the impact rate,
 mean and mean-square impact speed and the energy removed per unit time
 (½ (1 − r²) Σ u² / time) of each wall follow from them.
+
+Asked for (``hu``), a flight also counts each impact speed in a histogram per wall,
+``hu[side, k]`` for the bin k = ⌊u · iw_side⌋ of width 1/iw_side from u = 0, the
+last column ``hu[side, -1]`` counting the speeds beyond the last bin.  Left out
+(``hu=None``, the default), the compiled code has no histogram at all; an array
+with no column (the kernel's "not requested") costs one comparison per impact.
 """
 from __future__ import annotations
 
@@ -24,8 +30,18 @@ W_N, W_U, W_Q = range(3)
 NW = 3
 
 
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _count_speed(hu, side, u, iw):
+    """Add the impact speed u to row ``side`` of the speed histogram ``hu``."""
+    if hu is not None:
+        m = hu.shape[1]
+        if m > 0:
+            k = u * iw
+            hu[side, int(k) if k < m - 1 else m - 1] += 1.0
+
+
 @njit(cache=True, fastmath=FASTMATH)
-def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk):
+def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk, hu, iwl, iwr):
     """The impact part of :func:`_flight` (not inlined: rare)."""
     nl = 0
     nr = 0
@@ -47,6 +63,7 @@ def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk):
                 nr += 1
                 ur += vi
                 qr += vi * vi
+                _count_speed(hu, RIGHT, vi, iwr)
             else:
                 v = 0.0
             corr = -off * fhi
@@ -60,6 +77,7 @@ def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk):
                 nl += 1
                 ul -= vi
                 ql += vi * vi
+                _count_speed(hu, LEFT, -vi, iwl)
             else:
                 v = 0.0
             corr = -off * flo
@@ -71,7 +89,8 @@ def _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk):
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _flight(x, y, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t):
+def _flight(x, y, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu=None,
+            iwl=0.0, iwr=0.0):
     """Free flight x += tau*y with impacts located exactly at x = lo / hi.
 
     ``y`` is the splitting's stored velocity, which already holds the whole
@@ -101,6 +120,10 @@ def _flight(x, y, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t):
         on the wall it hit last.
     lo_t, hi_t : float
         The interval whose flights need no impact test (``lo``, ``hi``).
+    hu : float64[2, m] or None, optional
+        Impact-speed histogram of the block (module docstring); None: not kept.
+    iwl, iwr : float, optional
+        Inverse bin widths of the left and right wall's speed histogram.
 
     Returns
     -------
@@ -112,4 +135,4 @@ def _flight(x, y, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t):
     # one test; a NaN goes to _impacts, which returns it unchanged
     if (xn >= lo_t) & (xn <= hi_t):
         return xn, y, 0, 0, 0.0, 0.0, 0.0, 0.0
-    return _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk)
+    return _impacts(x, y, xn, tau, off0, lo, hi, flo, fhi, rlo, rhi, maxk, hu, iwl, iwr)

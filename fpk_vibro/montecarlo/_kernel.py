@@ -47,7 +47,8 @@ from ._threads import run_blocks
 P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD = range(11)
 P_H0, P_HIW, P_X0, P_XIW, P_Y0, P_YIW, P_JX0, P_JXIW, P_JY0, P_JYIW = range(11, 21)
 P_FLO, P_FHI, P_RL = 21, 22, 23
-NP = 24
+P_UWL, P_UWR = 24, 25        # inverse bin widths of the impact-speed histograms
+NP = 26
 # integer flags
 I_MODE, I_D2, I_MAXK = range(3)
 NI = 3
@@ -181,21 +182,22 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
 def _step_walls(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
-                has_d2, maxk, lo_t, hi_t):
+                has_d2, maxk, lo_t, hi_t, hu=None, iwl=0.0, iwr=0.0):
     """One BAOAB step (module docstring); f = F(x) on entry and on return.
 
     Returns (x, y, f) and the wall statistics of the step as :func:`._flight._flight`
-    gives them (impacts left, right, Σu left, right, Σu² left, right).
+    gives them (impacts left, right, Σu left, right, Σu² left, right); ``hu``,
+    ``iwl``, ``iwr``: the impact-speed histogram, as there.
     """
     y += hh * f
     x, y, nl, nr, ul, ur, ql, qr = _flight(x, y, hh, -hh, lo, hi, flo, fhi, rlo, rhi,
-                                           maxk, lo_t, hi_t)
+                                           maxk, lo_t, hi_t, hu, iwl, iwr)
     if has_d2:
         y = ec * y + math.sqrt(d1s2 + d2s2 * x * x) * z
     else:
         y = ec * y + sd0 * z
     x, y, nl2, nr2, ul2, ur2, ql2, qr2 = _flight(x, y, hh, 0.0, lo, hi, flo, fhi, rlo, rhi,
-                                                 maxk, lo_t, hi_t)
+                                                 maxk, lo_t, hi_t, hu, iwl, iwr)
     f = -(a + bcub * x * x) * x
     return x, y + hh * f, f, nl + nl2, nr + nr2, ul + ul2, ur + ur2, ql + ql2, qr + qr2
 
@@ -259,7 +261,7 @@ def _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-               mom, imp, xext, hH, hx, hy, hj, wimp):
+               mom, imp, xext, hH, hx, hy, hj, wimp, speeds):
     """Block b of :func:`advance` (compiled without the GIL; :func:`advance`
     runs the blocks on a thread pool).
 
@@ -268,7 +270,8 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     vectorised :func:`_smooth_sweep`, then redoes the few paths it flagged
     (a wall crossed, ~2 % of path-steps in the paper's case) with the scalar
     :func:`_step_walls`.  Impact statistics are summed in locals and added to
-    ``imp[b]`` and ``wimp[b]`` once, at the end.
+    ``imp[b]`` and ``wimp[b]`` once, at the end; impact speeds go to ``speeds[b]``
+    (a histogram per wall, :mod:`._flight`; no column: not kept).
     """
     a = p[P_A]
     bcub = p[P_B]
@@ -283,6 +286,9 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     rhi = p[P_R]
     flo = p[P_FLO]
     fhi = p[P_FHI]
+    hu = speeds[b]
+    iwl = p[P_UWL]
+    iwr = p[P_UWR]
     has_d2 = ip[I_D2] != 0
     maxk = ip[I_MAXK]
     lo_t = lo                       # ∓inf where there is no wall
@@ -322,7 +328,8 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                 j = trailing_zeros(bad2)
                 bad2 &= bad2 - 1
                 x, y, ml, mr, sl, sr, tl, tr = _flight(xm[j], vb[j], hh, 0.0, lo, hi, flo,
-                                                       fhi, rlo, rhi, maxk, lo_t, hi_t)
+                                                       fhi, rlo, rhi, maxk, lo_t, hi_t, hu,
+                                                       iwl, iwr)
                 xb[j] = x
                 vb[j] = y
                 nl += ml
@@ -338,7 +345,7 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                 f = -(a + bcub * x * x) * x
                 x, y, f, ml, mr, sl, sr, tl, tr = _step_walls(
                     x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi,
-                    flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t)
+                    flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr)
                 xb[j] = x
                 vb[j] = y - hh * f
                 nl += ml
@@ -372,7 +379,7 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
 
 
 def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-            mom, imp, xext, hH, hx, hy, hj, threads=None, walls=None):
+            mom, imp, xext, hH, hx, hy, hj, threads=None, walls=None, speeds=None):
     """Advance every path by ``n_steps`` steps (in place), sampling if asked.
 
     Blocks run on ``threads`` workers (:func:`run_blocks`).  Within a block,
@@ -407,12 +414,18 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         Per-block wall statistics, added to: ``walls[b, side, W_N]`` impacts,
         ``W_U`` Σ u, ``W_Q`` Σ u² (u the speed before impact; side 0 left, 1
         right).  Default: not kept.
+    speeds : float64[n_blocks, 2, m], optional
+        Per-block impact-speed histograms, added to (:mod:`._flight`; bin widths
+        1/``p[P_UWL]``, 1/``p[P_UWR]``, column m − 1 the speeds beyond).  Default
+        (or m = 0): not kept.
     """
     if walls is None:
         walls = np.zeros((rng.shape[0], 2, NW))
+    if speeds is None:
+        speeds = np.zeros((rng.shape[0], 2, 0))
     run_blocks(_run_block, rng.shape[0], (xs, ys, rng, starts, n_steps, step0,
                                           sample_every, p, ip, mom, imp, xext,
-                                          hH, hx, hy, hj, walls), threads)
+                                          hH, hx, hy, hj, walls, speeds), threads)
 
 
 @njit(cache=True, fastmath=FASTMATH)

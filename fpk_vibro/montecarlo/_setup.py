@@ -14,23 +14,26 @@ from ..model import VibroImpactSystem
 from ..scales import (amplitude_scale, energy_scale, period, potential_min,  # noqa: F401
                       reach, relaxation_rate)
 from . import _kernel as K
-from .solution import QUANTITIES
+from .solution import ALL_QUANTITIES, QUANTITIES  # noqa: F401
 
 CHUNK_PATH_STEPS = 1 << 23      # path-steps per kernel call (progress / Ctrl-C granularity)
 
 
 def check_quantities(name: str, quantities: Any, where: str | None) -> tuple[str, ...]:
+    """Distinct names from :data:`ALL_QUANTITIES` (the default histograms and the
+    opt-in impact speeds), in that order."""
     if isinstance(quantities, str):
         quantities = (quantities,)
     try:
         qs = tuple(quantities)
     except TypeError:
-        raise _checks.invalid(where, name, f"a sequence of names from {QUANTITIES}",
+        raise _checks.invalid(where, name, f"a sequence of names from {ALL_QUANTITIES}",
                               quantities) from None
-    bad = [q for q in qs if not isinstance(q, str) or q not in QUANTITIES]
+    bad = [q for q in qs if not isinstance(q, str) or q not in ALL_QUANTITIES]
     if bad or len(set(qs)) != len(qs):
-        raise _checks.invalid(where, name, f"distinct names from {QUANTITIES}", quantities)
-    return tuple(q for q in QUANTITIES if q in qs)
+        raise _checks.invalid(where, name, f"distinct names from {ALL_QUANTITIES}",
+                              quantities)
+    return tuple(q for q in ALL_QUANTITIES if q in qs)
 
 
 def check_seed(name: str, seed: Any, where: str | None) -> int | np.random.SeedSequence:
@@ -70,16 +73,17 @@ def _edges_or_count(where: str | None, name: str, v: Any) -> int | np.ndarray:
 
 
 def check_bins(name: str, bins: Any, where: str | None) -> dict[str, Any]:
-    """bins: int n (n bins for energy, x, y; n//2 per axis for joint) or a dict."""
+    """bins: int n (n bins for energy, x, y and each wall's impact speeds; n//2 per axis
+    for joint) or a dict (impact-speed edges must start at 0)."""
     if isinstance(bins, numbers.Integral) and not isinstance(bins, bool):
         n = _checks.check_int(name, bins, 2, 100_000, where=where)
-        return {"energy": n, "x": n, "y": n, "joint": (max(n // 2, 1),) * 2}
+        return {"energy": n, "x": n, "y": n, "joint": (max(n // 2, 1),) * 2, "impacts": n}
     if not isinstance(bins, dict):
         raise _checks.invalid(where, name, "an integer in [2, 100000] or a table "
                               "{quantity: count or edges}", bins)
-    unknown = [k for k in bins if k not in QUANTITIES]
+    unknown = [k for k in bins if k not in ALL_QUANTITIES]
     if unknown:
-        raise _checks.invalid(where, f"{name} keys", f"names from {QUANTITIES}", unknown)
+        raise _checks.invalid(where, f"{name} keys", f"names from {ALL_QUANTITIES}", unknown)
     out = check_bins(name, 100, where)
     for k, v in bins.items():
         if k == "joint":
@@ -92,6 +96,9 @@ def check_bins(name: str, bins: Any, where: str | None) -> dict[str, Any]:
                       _edges_or_count(where, f"{name}['joint'][1]", v[1]))
         else:
             out[k] = _edges_or_count(where, f"{name}[{k!r}]", v)
+            if k == "impacts" and isinstance(out[k], np.ndarray) and out[k][0] != 0.0:
+                raise _checks.invalid(where, f"{name}['impacts']", "a bin count or equally "
+                                      "spaced edges starting at 0 (speeds)", v)
     return out
 
 
@@ -171,6 +178,7 @@ def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
     p[K.P_RL] = system.left.r if system.left is not None else 1.0
     p[K.P_R] = system.right.r if system.right is not None else 1.0
     p[K.P_GD] = system.barrier_energy
+    p[K.P_UWL] = p[K.P_UWR] = 0.0             # impact-speed bins (Histograms.fill_params)
     for i, xb in ((K.P_FLO, lo), (K.P_FHI, hi)):
         p[i] = -(system.a + system.b * xb * xb) * xb if math.isfinite(xb) else 0.0
     ip[K.I_MODE] = {"none": K.MODE_NONE, "right": K.MODE_RIGHT, "both": K.MODE_BOTH,
@@ -202,7 +210,13 @@ def x_range(system: VibroImpactSystem, H_max: float) -> tuple[float, float]:
 
 
 class Histograms:
-    """Edges of the requested histograms and the per-block count arrays."""
+    """Edges of the requested histograms and the per-block count arrays.
+
+    Impact speeds ("impacts"): per wall w, bins from 0 to sqrt(2 (H_max − G(x_w))),
+    the speed at the wall of a path of energy H_max (or the given edges); ``hu`` is
+    ``[n_blocks, 2, bins + 1]`` (side 0 left, 1 right; last column: beyond the last
+    bin), or ``[n_blocks, 2, 0]`` when not requested.
+    """
 
     def __init__(self, system: VibroImpactSystem, quantities: tuple[str, ...],
                  bins: dict[str, Any], n_blocks: int, H_max: float) -> None:
@@ -235,6 +249,18 @@ class Histograms:
         nj = (self.edges["edges_jx"].size - 1, self.edges["edges_jy"].size - 1) \
             if "edges_jx" in self.edges else (0, 1)
         self.hj = np.zeros((n_blocks,) + nj)
+        nu = 0
+        if "impacts" in quantities:
+            for side, wall in system.walls:
+                spec = bins["impacts"]
+                if isinstance(spec, np.ndarray):
+                    self.edges[f"edges_u_{side}"] = spec
+                    continue
+                du = H_max - float(system.potential(wall.position))
+                u_max = math.sqrt(2.0 * du) if du > 1e-12 else math.sqrt(2.0 * (H_max - gmin))
+                self.edges[f"edges_u_{side}"] = np.linspace(0.0, u_max, spec + 1)
+            nu = bin_count(bins["impacts"]) + 1 if system.walls else 0
+        self.hu = np.zeros((n_blocks, 2, nu))
 
     def fill_params(self, p: np.ndarray) -> None:
         """Put the (uniform) bin origins and inverse widths into p."""
@@ -244,6 +270,10 @@ class Histograms:
             if key in self.edges:
                 e = self.edges[key]
                 p[i0] = e[0]
+                p[iw] = (e.size - 1) / (e[-1] - e[0])
+        for key, iw in (("edges_u_left", K.P_UWL), ("edges_u_right", K.P_UWR)):
+            if key in self.edges:
+                e = self.edges[key]
                 p[iw] = (e.size - 1) / (e[-1] - e[0])
 
 

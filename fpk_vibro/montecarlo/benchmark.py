@@ -13,7 +13,10 @@ Prints
    compared with the run at half the default dt);
 3. the wall time of ``stationary(VibroImpactSystem.paper(r=0.92),
    target_rse=1e-3)`` in a fresh interpreter (import, cached compilation,
-   burn-in and sampling included).
+   burn-in and sampling included);
+4. path-steps per second of the first-passage kernel (:mod:`._fp_kernel`; the
+   paper's r = 0.92 case, H_c = 0.498 from (0, 0), default dt, until every path
+   has exited) against the same random-source floor, paired as in 1.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ import numpy as np
 from ..model import VibroImpactSystem
 from . import _kernel as K
 from . import _setup as S
+from . import _first_passage as FP
 from ._engine import stationary
 from .solution import QUANTITIES
 
@@ -134,6 +138,57 @@ def rates(n_paths=2048, n_batches=32, path_steps=1.6e8, repeats=5, threads=None)
     return out
 
 
+def fp_rates(n_paths=16384, repeats=5, threads=None, energy=0.498):
+    """First-passage kernel rate against the normals floor, per thread count.
+
+    Each repeat runs every path of the paper r = 0.92 case from (0, 0) until it
+    leaves H < ``energy`` (:func:`._first_passage.simulate`, one round, a horizon
+    that all paths reach first) and, right after, draws as many normals per block
+    as the kernel did path-steps (mean per block) with the same generator and
+    dispatch.  Returns ``{threads: dict(kernel=, floor=, ratio=, ratio_cpu=)}`` as
+    :func:`rates` (best rates; median paired ratios; CPU-time ratio for one thread).
+    """
+    system = VibroImpactSystem.paper(r=0.92)
+    dt = S.default_dt(system)
+    nb = FP.N_BLOCKS
+    k_all = math.ceil(FP.T_CAP / S.relaxation_rate(system) / dt)
+
+    def run(nt, cpu):
+        rng = S.rng_states(np.random.SeedSequence(11).spawn(nb))
+        xs, ys = np.zeros(n_paths), np.zeros(n_paths)
+        clock = time.thread_time if cpu else time.perf_counter
+        t = clock()
+        _, _, counts, _, _ = FP.simulate(system, energy, xs, ys, dt, rng, k_all, k_all, nt)
+        el = clock() - t
+        steps = float(counts[:, 0].sum())
+        t = clock()
+        K.normals_floor(rng, int(steps // nb), nt)
+        return steps, el, clock() - t
+
+    counts_t = list(threads or sorted({1, numba.config.NUMBA_NUM_THREADS}))
+    run(1, False)                                  # compile / load the cache
+    t = {nt: {"k": [], "n": [], "ck": [], "cn": [], "w": 0.0} for nt in counts_t}
+    for _ in range(repeats):
+        for nt in counts_t:
+            steps, tk, tn = run(nt, False)
+            m = t[nt]
+            m["w"] = steps
+            m["k"].append(tk)
+            m["n"].append(tn)
+            if nt == 1:
+                _, ck, cn = run(nt, True)
+                m["ck"].append(ck)
+                m["cn"].append(cn)
+    out = {}
+    for nt, m in t.items():
+        w, total = m["w"], (m["w"] // nb) * nb
+        out[nt] = dict(kernel=w / min(m["k"]), floor=total / min(m["n"]), path_steps=w,
+                       ratio=float(np.median(np.asarray(m["n"]) / m["k"])) * w / total,
+                       ratio_cpu=(float(np.median(np.asarray(m["cn"]) / m["ck"])) * w / total
+                                  if m["ck"] else None))
+    return out
+
+
 def bias_table(factors=(4.0, 2.0, 1.0, 0.5), target_rse=2e-3, seed=99):
     """E[H] of the paper r = 0.92 case for dt = factor × default dt.
 
@@ -172,6 +227,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="smaller sizes (rough figures)")
     ap.add_argument("--skip-bias", action="store_true")
     ap.add_argument("--skip-wall", action="store_true")
+    ap.add_argument("--skip-first-passage", action="store_true")
     ap.add_argument("--bias-rse", type=float, default=2e-3,
                     help="target relative SE of each E[H] in the dt table (default 2e-3)")
     args = ap.parse_args(argv)
@@ -212,6 +268,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"   {total:.2f} s wall ({inner:.2f} s from import to result): E[H] = {m:.5f} "
               f"± {se:.2g} (rel {se / m:.2e}), {n} paths × {ts:.0f} time units, dt={dt:.4f}"
               f"   (target <= 10 s)")
+    if not args.skip_first_passage:
+        print("\n4. first-passage kernel vs the random source's normal rate (paper r=0.92, "
+              "H_c=0.498 from (0, 0), default dt, 16384 paths to exit)")
+        r = fp_rates(repeats=3 if args.quick else 7)
+        print(f"   {'threads':>7} {'path-steps/s':>14} {'normals alone':>14} "
+              f"{'kernel/floor':>12}")
+        for nt, m in r.items():
+            extra = f"   (by CPU time: {m['ratio_cpu']:.2f})" if m["ratio_cpu"] is not None \
+                else ""
+            print(f"   {nt:>7} {m['kernel']:>12.3e}/s {m['floor']:>12.3e}/s "
+                  f"{m['ratio']:>12.2f}{extra}")
+        print(f"   ({next(iter(r.values()))['path_steps']:.3g} path-steps per run; rates: "
+              "best of the repeats; ratios: medians of back-to-back pairs)")
     return 0
 
 

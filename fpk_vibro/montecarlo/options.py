@@ -11,7 +11,7 @@ from ..model import VibroImpactSystem
 from ..options import Options as _Options
 from ..options import PerMode, option
 from . import _setup as S
-from .solution import QUANTITIES
+from .solution import ALL_QUANTITIES, QUANTITIES
 
 __all__ = ["Options"]
 
@@ -42,7 +42,7 @@ class Options(_Options):
                        check=S.check_seed, allowed="integer in [0, 2⁶³ − 1]",
                        auto="fresh entropy, recorded in the result")
     quantities: tuple = option(QUANTITIES, "histograms to accumulate", "custom",
-                               check=S.check_quantities, allowed=f"names from {QUANTITIES}",
+                               check=S.check_quantities, allowed=f"names from {ALL_QUANTITIES}",
                                scene="study.quantities")
     bins: Any = option(PerMode(100, 60), "histogram bins: n for H, x, y (n/2 per axis of the "
                        "joint), or a table {quantity: count or edges}", "custom",
@@ -83,6 +83,11 @@ class Options(_Options):
         def bad(name: str, allowed: str, value: Any, why: str = "") -> InputError:
             return invalid(where, name, allowed, value, why)
 
+        if "impacts" in self.quantities and (mode != "stationary" or not system.walls):
+            raise bad("quantities", "names from " + str(QUANTITIES) + (
+                "" if mode != "stationary" else " ('impacts' needs a wall)"),
+                list(self.quantities), "impact speeds are histogrammed by "
+                "montecarlo.stationary only" if mode != "stationary" else "no wall")
         if self.n_batches > self.n_paths:
             raise bad("n_batches", f"an integer in [2, n_paths = {self.n_paths}]",
                       self.n_batches)
@@ -107,6 +112,8 @@ class Options(_Options):
         n_hist = sum(S.bin_count(bins[q]) for q in ("energy", "x", "y") if q in self.quantities)
         if "joint" in self.quantities:
             n_hist += S.bin_count(bins["joint"][0]) * S.bin_count(bins["joint"][1])
+        if "impacts" in self.quantities:
+            n_hist += 2 * (S.bin_count(bins["impacts"]) + 1)
         memory = 150e6 + 48.0 * self.n_paths + 3 * 8.0 * self.n_batches * n_hist
         if mode == "stationary":
             if r["adaptive"]:     # var(H) ≈ E[H]², correlation time ≈ 0.3/λ (measured)

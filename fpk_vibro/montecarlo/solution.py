@@ -8,9 +8,14 @@ import numpy as np
 from ..model import BARRIER_KINDS, VibroImpactSystem
 from ..solution import Rule, Solution, Stored
 
-__all__ = ["MonteCarloSolution", "QUANTITIES"]
+__all__ = ["MonteCarloSolution", "QUANTITIES", "ALL_QUANTITIES"]
 
+#: The histograms of the state, accumulated by default.
 QUANTITIES = ("energy", "x", "y", "joint")
+#: Everything ``quantities`` may name: the default histograms and, only when asked,
+#: "impacts" (a histogram of the speed just before each impact, per wall).
+ALL_QUANTITIES = QUANTITIES + ("impacts",)
+_SIDES = {"both": ("left", "right"), "left": ("left",), "right": ("right",), "none": ()}
 _MOMENT_NAMES = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
 _HISTS = {"energy": ("edges_H",), "x": ("edges_x",), "y": ("edges_y",),
           "joint": ("edges_jx", "edges_jy")}
@@ -69,7 +74,9 @@ class MonteCarloSolution(Solution):
     x_seen : tuple of float
         Smallest and largest x among the samples (always inside the strip).
     histograms : dict
-        ``name -> (edges..., density, standard error)`` for each requested quantity.
+        ``name -> (edges..., density, standard error)`` for each requested histogram
+        of the state; the impact speeds ("impacts") are per wall:
+        :meth:`impact_speed_histogram`.
     """
 
     kind = "montecarlo"
@@ -95,7 +102,7 @@ class MonteCarloSolution(Solution):
     @property
     def histograms(self) -> dict[str, tuple[np.ndarray, ...]]:
         out = {}
-        for q in self.quantities:
+        for q in (q for q in self.quantities if q in _HISTS):
             edges = tuple(self._arrays[e] for e in _HISTS[q])
             out[q] = edges + (self._arrays[f"density_{q}"], self._arrays[f"se_{q}"])
         return out
@@ -136,6 +143,42 @@ class MonteCarloSolution(Solution):
         ky, iny = _lookup(self._arrays["edges_jy"], y)
         dens = self._arrays["density_joint"]
         return np.where(inx & iny & self.system.in_strip(x), dens[kx, ky], 0.0)
+
+    # -- impact speeds -------------------------------------------------------------
+    def _wall(self, wall: Any) -> str:
+        from .._checks import invalid
+        sides = [side for side, _ in self.system.walls]
+        if not isinstance(wall, str) or wall not in sides:
+            raise invalid("impact_speed_pdf", "wall", f"one of the system's walls {sides}",
+                          wall)
+        self._need("impacts")
+        return wall
+
+    def impact_speed_histogram(self, wall: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(edges, density, se)`` of the speed u just before an impact on ``wall``.
+
+        Every impact located during sampling is counted at its speed (before the
+        reflection); the density is normalised by the wall's impact count, so the
+        impacts beyond the last edge (``overflow["impacts_<wall>"]``) are missing
+        mass.  ``se`` per bin from the spread between batches (NaN if the wall was
+        never hit).  Only in runs with "impacts" among ``quantities``.
+
+        Raises
+        ------
+        ValueError
+            For a wall the system does not have, or a run without "impacts".
+        """
+        w = self._wall(wall)
+        return (self._arrays[f"edges_u_{w}"], self._arrays[f"density_u_{w}"],
+                self._arrays[f"se_u_{w}"])
+
+    def impact_speed_pdf(self, wall: str, u: np.ndarray) -> np.ndarray:
+        """Density of the speed u ≥ 0 just before an impact on ``wall``: the histogram
+        of :meth:`impact_speed_histogram`, piecewise constant, zero outside its bins."""
+        edges, dens, _ = self.impact_speed_histogram(wall)
+        u = np.asarray(u, dtype=float)
+        k, inside = _lookup(edges, u)
+        return np.where(inside, dens[k], 0.0)
 
     # -- moments and impacts ------------------------------------------------------
     def _moment_dict(self, key: str) -> dict[str, float]:
@@ -205,9 +248,9 @@ class MonteCarloSolution(Solution):
         "time": Rule.number(0.0, none=True), "seed_entropy": Rule.ANY, "partial": Rule.FLAG,
         "impact_rate": Rule.number(0.0, nan=True), "impact_rate_se": Rule.number(0.0, nan=True),
         "n_samples": Rule.integer(0), "sample_every": Rule.integer(0),
-        "quantities": Rule(f"a list of distinct names from {list(QUANTITIES)}",
+        "quantities": Rule(f"a list of distinct names from {list(ALL_QUANTITIES)}",
                            lambda v: isinstance(v, list) and len(set(map(str, v))) == len(v)
-                           and all(q in QUANTITIES for q in v)),
+                           and all(q in ALL_QUANTITIES for q in v)),
         "mode": Rule.choice(*BARRIER_KINDS),
         "overflow": Rule.mapping(Rule.number(0.0, hi=1.0)),
         "x_seen": Rule.listing(Rule.number(nan=True), 2), "scheme": Rule.TEXT,
@@ -223,6 +266,13 @@ class MonteCarloSolution(Solution):
         out = {"moments": Stored((len(_MOMENT_NAMES),)),
                "moments_se": Stored((len(_MOMENT_NAMES),), nonneg=True, nan_ok=True)}
         for q in meta["quantities"]:
+            if q == "impacts":            # one speed histogram per wall
+                for side in _SIDES[meta["mode"]]:
+                    e = f"edges_u_{side}"
+                    out[e] = Stored((e,), min_size=2, increasing=True, nonneg=True)
+                    out[f"density_u_{side}"] = Stored((f"{e}-1",), nonneg=True)
+                    out[f"se_u_{side}"] = Stored((f"{e}-1",), nonneg=True, nan_ok=True)
+                continue
             for e in _HISTS[q]:
                 out[e] = Stored((e,), min_size=2, increasing=True)
             bins = tuple(f"{e}-1" for e in _HISTS[q])
