@@ -18,7 +18,7 @@ from .model import VibroImpactSystem
 __all__ = ["solver_kwargs", "plan", "resolved_options", "SOLVER_QUANTITIES"]
 
 #: The histograms a Monte Carlo run can accumulate.
-SOLVER_QUANTITIES = ("energy", "x", "y", "joint")
+SOLVER_QUANTITIES = ("energy", "x", "y", "joint", "impacts")
 
 
 def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> dict[str, Any]:
