@@ -90,8 +90,10 @@ def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
             out["impacts"] = sol.impacts()
         except NotImplementedError:
             pass
-        if hasattr(sol, "power_balance"):
-            out["power_balance"] = sol.power_balance()
+    try:                       # a check on every stationary solution (docs/impacts.md)
+        out["power_balance"] = sol.power_balance()
+    except NotImplementedError:
+        pass
     if scene.first_passage is not None and method != "exact":
         module = importlib.import_module(f"fpk_vibro.{method}")
         fp = scene.first_passage

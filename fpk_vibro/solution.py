@@ -96,6 +96,23 @@ class Solution(abc.ABC):
         from .labelled import solution_dataset
         return solution_dataset(self, grids)
 
+    def power_balance(self) -> dict[str, float]:
+        """The stationary power balance D1 + D2 E[x²] = c E[y²] + Σ_w P_w
+        (docs/impacts.md): its three terms and the relative residual (with
+        ``residual_se`` where the method has standard errors)."""
+        s, m = self.system, self.moments()
+        imp = self.impacts() if s.has_barrier else {}
+        noise = s.D1 + s.D2 * m["E_x2"]
+        damping = s.c * m["E_y2"]
+        impacts = sum(v["energy_rate"] for v in imp.values())
+        out = {"noise": noise, "damping": damping, "impacts": impacts,
+               "residual": (noise - damping - impacts) / noise}
+        if hasattr(self, "moments_se"):
+            se = self.moments_se()
+            out["residual_se"] = (s.D2 * se["E_x2"] + s.c * se["E_y2"] + sum(
+                v.get("energy_rate_se", 0.0) for v in imp.values())) / noise
+        return out
+
     def mean_x(self) -> float:
         """E[x] = ∫ x p(x) dx: zero for walls at ±Δ, not for asymmetric walls.
 
