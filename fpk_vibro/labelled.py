@@ -51,7 +51,7 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
     sol : fpk_vibro.Solution
     grids : dict, optional
         ``{"energy": H, "x": x, "y": y, "joint": (x, y)}``; default the grids of a
-        scene run (:func:`fpk_vibro.runner.grids_for`).
+        scene run (:func:`fpk_vibro.scales.density_grids`).
 
     Returns
     -------
@@ -63,8 +63,8 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
     """
     xr = _xarray()
     from . import __version__
-    from .runner import grids_for
-    g = grids or grids_for(sol.system, sol)
+    from .scales import density_grids
+    g = grids or density_grids(sol.system, sol)
     data: dict[str, Any] = {}
     try:
         data["pdf_energy"] = (("H",), sol.pdf_energy(g["energy"]))

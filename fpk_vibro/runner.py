@@ -28,24 +28,12 @@ from .io import atomic_json, atomic_savez
 from .outdir import OutputDir, finished_points, holds, point_records
 from .model import VibroImpactSystem
 from .plan import resolved_options, solver_kwargs
-from .scales import reach as scales_reach
+from .scales import density_grids
 from .scenes import Scene, check_scene
 
 __all__ = ["run_scene", "run_point", "grids_for"]
 
-
-def grids_for(system: VibroImpactSystem, reference: Any) -> dict[str, np.ndarray]:
-    """Evaluation grids for H, x, y covering the bulk of ``reference``'s density."""
-    from .scales import potential_min
-    g0 = potential_min(system)
-    H_top = g0 + 12.0 * max(reference.moments()["E_H"] - g0, 1e-12)
-    lo, hi = system.x_bounds
-    A = float(scales_reach(system, H_top))
-    lo, hi = max(lo, -A), min(hi, A)
-    y_top = float(np.sqrt(2.0 * (H_top - g0)))
-    return {"energy": np.linspace(g0, H_top, 301)[1:], "x": np.linspace(lo, hi, 241),
-            "y": np.linspace(-y_top, y_top, 241),
-            "joint": (np.linspace(lo, hi, 121), np.linspace(-y_top, y_top, 121))}
+grids_for = density_grids
 
 
 def _solve(method: str, system: VibroImpactSystem, scene: Scene,

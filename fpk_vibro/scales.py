@@ -23,12 +23,15 @@ from __future__ import annotations
 
 import math
 
+from typing import Any
+
 import numpy as np
 
 from .model import VibroImpactSystem
 
 __all__ = ["energy_scale", "length_scale", "omega0", "period", "relaxation_rate",
-           "relaxation_time", "potential_min", "tail_energy", "reach", "TAIL_MASS"]
+           "relaxation_time", "potential_min", "tail_energy", "reach", "density_grids",
+           "TAIL_MASS"]
 
 #: Mass allowed beyond a truncation of the state space (FE domain).
 TAIL_MASS = 1e-8
@@ -189,3 +192,16 @@ def tail_energy(system: VibroImpactSystem, mass: float = TAIL_MASS) -> float:
     raise ValueError(f"the energy tail does not decay fast enough for a truncation "
                      f"(D2={system.D2} against c={system.c} on a side without barrier); "
                      "give y_max and a mesh that covers the support")
+
+
+def density_grids(system: VibroImpactSystem, reference: Any) -> dict[str, np.ndarray]:
+    """Evaluation grids for H, x, y covering the bulk of ``reference``'s density."""
+    g0 = potential_min(system)
+    H_top = g0 + 12.0 * max(reference.moments()["E_H"] - g0, 1e-12)
+    lo, hi = system.x_bounds
+    A = float(reach(system, H_top))
+    lo, hi = max(lo, -A), min(hi, A)
+    y_top = float(np.sqrt(2.0 * (H_top - g0)))
+    return {"energy": np.linspace(g0, H_top, 301)[1:], "x": np.linspace(lo, hi, 241),
+            "y": np.linspace(-y_top, y_top, 241),
+            "joint": (np.linspace(lo, hi, 121), np.linspace(-y_top, y_top, 121))}
