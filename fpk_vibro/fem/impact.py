@@ -79,11 +79,16 @@ def coupling_matrix(basis: skfem.CellBasis, wall: Wall, y_max: float,
     # a mesh whose height varies along x (e.g. fitted to a level set) ends lower here
     y_max = min(y_max, float(np.max(np.abs(p[1, on_wall]))))
     y, ym, w = wall_quadrature(wall, p[1, on_wall], y_max, intorder)
-    # a hair inside: skfem's point search can miss points exactly on a boundary edge
-    # of a non-rectangular cell (the traces are continuous, so the value is the same)
-    xw = np.full_like(y, wall.x - wall.side * 1e-12 * max(1.0, abs(wall.x)))
-    P = basis.probes(np.vstack([xw, y]))
-    Pr = basis.probes(np.vstack([xw, ym]))
+    xw = np.full_like(y, wall.x)
+    try:
+        P = basis.probes(np.vstack([xw, y]))
+        Pr = basis.probes(np.vstack([xw, ym]))
+    except ValueError:
+        # skfem's point search can miss points exactly on a boundary edge of a
+        # non-rectangular cell: a hair inside (the trace is continuous)
+        xw = xw - wall.side * 1e-12 * max(1.0, abs(wall.x))
+        P = basis.probes(np.vstack([xw, y]))
+        Pr = basis.probes(np.vstack([xw, ym]))
     return ((P - Pr).T @ sp.diags(w) @ P).tocsr()
 
 
