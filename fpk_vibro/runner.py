@@ -28,6 +28,7 @@ from .io import atomic_json, atomic_savez
 from .outdir import OutputDir, finished_points, holds, point_records
 from .model import VibroImpactSystem
 from .plan import resolved_options, solver_kwargs
+from .progress import Progress
 from .scales import density_grids
 from .scenes import Scene, check_scene
 
@@ -235,11 +236,17 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
                 for i, (params, system) in enumerate(points) if i not in records]
         t0 = time.perf_counter()
         signum = None
+        sweep_bar = Progress(progress if len(jobs) > 1 else False, f"{scene.name} points",
+                             total=len(points), unit="point")
+        sweep_bar.update(len(records))
         try:
             for rec in _execute(jobs, serial, workers, scheduler):
                 records[rec["index"]] = _report(rec, len(points), log, warn)
+                sweep_bar.update(len(records))
         except Interrupted as exc:
             signum = exc.signum
+        finally:
+            sweep_bar.close()
         signum = signum or received()
         if signum is not None:        # what workers wrote but had not yet reported
             todo = {j[1] for j in jobs}

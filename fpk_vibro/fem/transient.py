@@ -1,4 +1,6 @@
-"""The 2-D FPK in time (DESIGN §3): M dp/dt = L p from a given initial density.
+"""The 2-D FPK in time: M dp/dt = L p from a given initial density.
+
+Theory: docs/theory.md, §Transients.
 
 Same generator L and mass matrix M as :func:`fpk_vibro.fem.stationary`.  Schemes:
 
@@ -6,7 +8,7 @@ Same generator L and mass matrix M as :func:`fpk_vibro.fem.stationary`.  Schemes
   step of a run is implicit Euler.  With ω = dt_n/dt_(n−1):
   ((1+2ω)/(1+ω) M − dt_n L) pⁿ⁺¹ = M((1+ω) pⁿ − ω²/(1+ω) pⁿ⁻¹).
 - ``"theta"``: (M − θ dt L) pⁿ⁺¹ = (M + (1−θ) dt L) pⁿ; θ = 1 implicit Euler,
-  θ = ½ Crank–Nicolson (stable but undamped at large dt, DESIGN §3).
+  θ = ½ Crank–Nicolson (stable but undamped at large dt: not L-stable).
 - ``"euler"``: implicit Euler (the θ-scheme with θ = 1).
 
 ``positivity`` (degree 1 on the structured quad mesh): L is replaced by the
@@ -46,6 +48,7 @@ from .. import scales
 from .._checks import check_float
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
+from ..progress import Progress
 from ..solution import Solution
 from .discretisation import Discretisation, build
 from .solve import factorised as step_solver, grid_nested_dissection, is_p1, nd_lu
@@ -118,7 +121,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               discretisation: Discretisation | None = None,
               positivity: bool | str = False, element: str = "quad",
               grading: float = 0.0) -> list[FEMSolution]:
-    """Densities at ``times`` from ``initial`` (DESIGN §3 transient).
+    """Densities at ``times`` from ``initial`` (docs/theory.md, §Transients).
 
     Parameters
     ----------
@@ -154,8 +157,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         largest step.  Step sizes are rounded to a ladder 2^(k/4)·dt so that LU
         factors are reused.  None (default): fixed steps of at most ``dt``.
     progress : bool, optional
-        A progress line on stderr (default: when stderr is a terminal and the run
-        has more than 2000 steps).
+        A progress bar (:mod:`fpk_vibro.progress`; default: on a terminal or in a
+        Jupyter notebook, after 2 s; False: never).
     discretisation : Discretisation, optional
         Reuse an assembled mesh and operator (then nx, ny, ... and
         ``positivity`` come from it; :func:`discretise`).
@@ -231,9 +234,9 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         return _bdf2(solve, M, p, p_prev, h, h_prev)
 
     if tol is not None:
-        return _march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache, factorised)
+        return _march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache, factorised, progress)
     n_total = int(sum(math.ceil((b - a) / dt - 1e-9) for a, b in zip(np.r_[0.0, t_out[:-1]], t_out)))
-    show = progress if progress is not None else (sys.stderr.isatty() and n_total > 2000)
+    bar = Progress(progress, "fem.transient", total=n_total, unit="step")
     out: list[FEMSolution] = []
     t_now, p_prev, h_prev, steps, t0 = 0.0, None, None, 0, time.perf_counter()
     try:
@@ -245,18 +248,15 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
                 p_new = step(p, p_prev, h, h_prev)
                 p_prev, p, h_prev = p, p_new, h
                 steps += 1
-                if show and steps % 200 == 0:
-                    print(f"\rfem.transient: step {steps}/{n_total}  t = {t_now + h:.4g}",
-                          end="", file=sys.stderr)
+                if steps % 50 == 0:
+                    bar.update(steps, f"t = {t_now + h:.4g}")
             t_now = float(t_target)
             out.append(_snapshot(disc, p, t_now, steps=steps, scheme=scheme, dt=h or dt,
                                  positivity=positivity))
     except KeyboardInterrupt:
         _mark_partial(out, t_now)
     finally:
-        if show:
-            print(f"\rfem.transient: {steps} steps in {time.perf_counter() - t0:.1f} s",
-                  file=sys.stderr)
+        bar.close(f"{steps} steps in {time.perf_counter() - t0:.1f} s")
     return out
 
 
@@ -281,8 +281,8 @@ def _mark_partial(out: list[FEMSolution], t_now: float) -> None:
           "finished time(s)", file=sys.stderr)
 
 
-def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised
-                    ) -> list[FEMSolution]:
+def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised,
+                    progress: bool | None = None) -> list[FEMSolution]:
     """BDF2 with step-size control by Milne's device (see :func:`transient`).
 
     Every step matrix is a rung M − g L of the ladder g = g_max·2^(−k/LADDER),
@@ -301,9 +301,12 @@ def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised
     out: list[FEMSolution] = []            # steps are not error-controlled
     steps = rejected = 0
     t_now = 0.0
+    bar = Progress(progress, "fem.transient")
     try:
         for t_target in t_out:
             while t_now < t_target - 1e-12 * max(1.0, t_target):
+                if steps % 20 == 0:
+                    bar.update(t_now / t_out[-1], f"t = {t_now:.4g}")
                 g = g_max * 2.0 ** (-k / LADDER)
                 prev = hist[-2] if len(hist) >= 2 else None
                 if prev is None:           # implicit Euler: a0 = 1, h = g
@@ -336,6 +339,8 @@ def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised
                                  factorisations=factorised[0]))
     except KeyboardInterrupt:
         _mark_partial(out, t_now)
+    finally:
+        bar.close()
     return out
 
 

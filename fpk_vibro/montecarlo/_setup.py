@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import math
 import numbers
-import sys
-import time
 from typing import Any
 
 import numpy as np
+
+from ..progress import Progress as _Progress
 
 from .. import _checks
 from ..model import VibroImpactSystem
@@ -277,28 +277,9 @@ class Histograms:
                 p[iw] = (e.size - 1) / (e[-1] - e[0])
 
 
-class Progress:
-    """A one-line progress report on stderr, only on a terminal and after 2 s."""
+class Progress(_Progress):
+    """The package's progress bar (:class:`fpk_vibro.progress.Progress`), labelled
+    for Monte Carlo."""
 
     def __init__(self, enabled: bool | None, label: str) -> None:
-        self.enabled = sys.stderr.isatty() if enabled is None else bool(enabled)
-        self.label = label
-        self.t0 = time.perf_counter()
-        self.shown = False
-
-    def update(self, frac: float, extra: str = "") -> None:
-        if not self.enabled:
-            return
-        el = time.perf_counter() - self.t0
-        if el < 2.0 and not self.shown:
-            return
-        self.shown = True
-        eta = el * (1 - frac) / frac if frac > 0 else math.inf
-        sys.stderr.write(f"\r[montecarlo] {self.label}: {100 * frac:5.1f}%  "
-                         f"{el:6.1f}s elapsed, ~{eta:6.1f}s left {extra}   ")
-        sys.stderr.flush()
-
-    def close(self, note: str = "") -> None:
-        if self.enabled and self.shown:
-            sys.stderr.write(f"\r[montecarlo] {self.label}: done {note}".ljust(78) + "\n")
-            sys.stderr.flush()
+        super().__init__(enabled, f"montecarlo {label}")
