@@ -19,7 +19,21 @@ from .solution import MOMENT_KEYS, Solution
 
 __all__ = ["VibroImpactSystem", "Wall", "Solution", "MOMENT_KEYS",
            "averaging", "exact", "fem", "montecarlo"]
-__version__ = "0.1.0"
+
+
+def _installed_version() -> str:
+    """The installed distribution's version (``version`` in pyproject.toml, the one
+    place it is written); "0+unknown" when the package runs uninstalled."""
+    from importlib import metadata
+    try:
+        return metadata.version("fpk_vibro")
+    except metadata.PackageNotFoundError:
+        return "0+unknown"
+
+
+#: The package version from the installed metadata; solution files, results.json and
+#: ``fpk-vibro --version`` record it.
+__version__ = _installed_version()
 
 _LAZY = {"averaging", "exact", "fem", "montecarlo", "orbits", "cli", "plotting", "io"}
 

@@ -5,11 +5,11 @@ For r = 1 and D2 = 0 (or no barrier and D2 = 0) the Gibbs density
     p(x, y) = exp(−β H(x, y)) / Z,   β = c / D1,
 
 on the strip solves the stationary FPK and satisfies the impact condition
-p(Δ, −v) = p(Δ, v) (DESIGN §3, §5).  It is the reference every method is checked
-against.  It holds for any a, b (softening, double well) allowed by the model and
-for any walls with r = 1 each (asymmetric, both on one side of x = 0, at or beyond
-the equilibrium): the density is the same expression restricted to the strip, so
-p(y) stays Gaussian while p(x) ∝ exp(−β G(x)) is cut by the walls and
+p(Δ, −v) = p(Δ, v) (docs/theory.md, §Exact solution).  It is the reference every
+method is checked against.  It holds for any a, b (softening, double well) allowed
+by the model and for any walls with r = 1 each (asymmetric, both on one side of
+x = 0, at or beyond the equilibrium): the density is the same expression restricted
+to the strip, so p(y) stays Gaussian while p(x) ∝ exp(−β G(x)) is cut by the walls and
 E[x] = ∫ x exp(−β G) dx / ∫ exp(−β G) dx ≠ 0 unless the walls are at ±Δ.
 """
 from __future__ import annotations

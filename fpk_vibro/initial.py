@@ -5,7 +5,7 @@ initial density of the state (x, y).  Users give it as one of
 
 - ``{"mean": (x0, y0), "std": (sx, sy)}``: independent Gaussians in x and y,
   the x component truncated to the strip ``left ≤ x ≤ right`` of the system
-  (DESIGN §1); a standard deviation 0 means exactly that value (a point mass
+  (docs/theory.md, §Walls); a standard deviation 0 means exactly that value (a point mass
   in that component);
 - a callable ``initial(n, rng)`` returning ``n`` samples, either as an array of
   shape ``(n, 2)`` (columns x, y) or as a pair ``(x, y)`` of arrays of shape

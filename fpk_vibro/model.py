@@ -1,4 +1,6 @@
-"""The vibro-impact Duffing oscillator shared by every method (DESIGN §1).
+"""The vibro-impact Duffing oscillator shared by every method.
+
+Theory: docs/theory.md, §Model and §Walls.
 
     x'' + c x' + a x + b x³ = ξ1(t) + x ξ2(t),   x_L < x < x_R
     y⁺ = −r_L y⁻ at x = x_L,   y⁺ = −r_R y⁻ at x = x_R
@@ -350,7 +352,8 @@ class VibroImpactSystem:
         return min(float(self.potential(w.position)) for _, w in self.walls)
 
     def amplitude(self, H: np.ndarray) -> np.ndarray:
-        """Amplitude A with G(A) = H, A² = 4H / (sqrt(a² + 4bH) + a) (DESIGN §1).
+        """Amplitude A with G(A) = H, A² = 4H / (sqrt(a² + 4bH) + a) (docs/theory.md,
+        §Energy and orbits).
 
         The cancellation-free form.  NaN where no real amplitude exists
         (softening b < 0 above the potential's maximum, or a ≤ 0 near H = 0).
@@ -366,7 +369,8 @@ class VibroImpactSystem:
         return np.sqrt(A2)
 
     def noise_intensity(self, x: np.ndarray) -> np.ndarray:
-        """D(x) = D1 + D2 x²: the diffusion coefficient of the FPK (DESIGN §3)."""
+        """D(x) = D1 + D2 x²: the diffusion coefficient of the FPK (docs/theory.md,
+        §FPK on the strip)."""
         return self.D1 + self.D2 * np.square(np.asarray(x, dtype=float))
 
     @property

@@ -1,7 +1,7 @@
 """Regenerate the strip meshes shipped in ``meshes/`` (run from the repository root:
 ``python meshes/make_meshes.py``).
 
-Each mesh covers the strip of DESIGN §3 for the paper's parameters
+Each mesh covers the strip (docs/theory.md, §FPK on the strip) for the paper's parameters
 (``VibroImpactSystem.paper()``: Δ = 0.6, default y_max rule of
 ``fpk_vibro.fem.mesh``), with y = 0 a mesh line, and is written with meshio
 (Gmsh 4.1 format) through ``skfem.Mesh.save``.  Load one with

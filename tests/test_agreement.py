@@ -1,4 +1,5 @@
-"""What must agree with what (DESIGN §5): FE vs Monte Carlo vs averaging on the paper cases."""
+"""What must agree with what (docs/theory.md, §Agreement): FE vs Monte Carlo vs
+averaging on the paper cases."""
 import pytest
 
 from fpk_vibro import VibroImpactSystem, averaging, fem, montecarlo

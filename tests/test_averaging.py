@@ -1,4 +1,5 @@
-"""Stochastic averaging (DESIGN §2): quadrature accuracy, exact limits, densities."""
+"""Stochastic averaging (docs/theory.md, §Averaging): quadrature accuracy, exact
+limits, densities."""
 import math
 
 import numpy as np

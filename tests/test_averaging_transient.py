@@ -1,4 +1,5 @@
-"""The averaged FPK in time (DESIGN §2): conservation, equilibrium, convergence."""
+"""The averaged FPK in time (docs/theory.md, §Averaged transient): conservation,
+equilibrium, convergence."""
 import numpy as np
 import pytest
 

@@ -1,5 +1,5 @@
 """FEM assembly: mass conservation (zero column sums), Kronecker = general assembly,
-the impact coupling, and input validation (DESIGN §3)."""
+the impact coupling, and input validation (docs/theory.md, §Impact coupling)."""
 import numpy as np
 import pytest
 import skfem

@@ -1,5 +1,6 @@
 """Convergence on the exact case r = 1, D2 = 0: p ∝ exp(−(c/D1) H) on the strip
-(DESIGN §3, §5).  Paper a, b, c, D1, Δ.  Separate rate tests, as in scikit-fem."""
+(docs/theory.md, §Assembly and solve, §Exact solution).  Paper a, b, c, D1, Δ.
+Separate rate tests, as in scikit-fem."""
 import numpy as np
 import pytest
 from skfem import Functional, asm

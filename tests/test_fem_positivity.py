@@ -1,8 +1,8 @@
-"""Positivity (DESIGN §3): the hard cases r ∈ {0, 0.1, 0.3}, D1 = 0.002, D2 = 0
-go negative next to (±Δ, 0) with plain Galerkin.  ``positivity=True`` is the
-positive tensor-grid generator (Scharfetter–Gummel in y, upwind transport,
-lumped conservative walls) with QUICK transport face values whose flux factors
-are clipped to [0, 4]: every returned density is the null vector of a generator
+"""Positivity (docs/theory.md, §Positivity): the hard cases r ∈ {0, 0.1, 0.3},
+D1 = 0.002, D2 = 0 go negative next to (±Δ, 0) with plain Galerkin.
+``positivity=True`` is the positive tensor-grid generator (Scharfetter–Gummel in y,
+upwind transport, lumped conservative walls) with QUICK transport face values whose
+flux factors are clipped to [0, 4]: every returned density is the null vector of a generator
 (off-diagonals ≥ 0, zero column sums), hence ≥ 0 with mass 1.  The algebraic
 discrete upwinding (``"upwind"``) and the Kuzmin AFC (``"afc"``) are kept for
 general meshes and for comparison."""
@@ -36,7 +36,7 @@ def _assert_generator(A):
 
 
 def test_plain_galerkin_goes_negative_on_hard_case():
-    """The problem positivity addresses really is there (DESIGN §3 trial fact)."""
+    """The problem positivity addresses really is there (docs/theory.md, §Positivity)."""
     sol = stationary(HARD[2], nx=64, positivity=False)
     assert sol.min_density < -0.01 * sol.dofs.max()
     assert abs(sol.mass - 1) < 1e-12

@@ -1,4 +1,5 @@
-"""FEMSolution: the Solution interface, save/load, meshio output, moments (DESIGN §3)."""
+"""FEMSolution: the Solution interface, save/load, meshio output, moments
+(docs/theory.md, §FPK on the strip)."""
 import numpy as np
 import pytest
 from scipy import integrate

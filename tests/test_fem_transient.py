@@ -1,4 +1,5 @@
-"""The FE transient (DESIGN §3): conservation, stability at large dt, order, limits, MC."""
+"""The FE transient (docs/theory.md, §Transients): conservation, stability at large
+dt, order, limits, MC."""
 import numpy as np
 import pytest
 

@@ -74,7 +74,7 @@ def test_walls_on_one_side_of_the_equilibrium_and_at_it():
 
 #: E[H] and the SHA-1 of the nodal values at nx = 32 (Q1, default options) and of a
 #: transient (nx = 16), computed with the code before walls could be given one by one
-#: (commit 1ddf3bc): ``python /tmp/fe_hash.py`` (the cases below).
+#: (commit 1ddf3bc) by the same calls as the tests below.
 BEFORE = {
     "paper092": ("2e9a3faa06a1f489", 0.16611374305448173),
     "paper098_right": ("8c09f3b02218bc8b", 0.36848662045694963),

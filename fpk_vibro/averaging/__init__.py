@@ -1,4 +1,6 @@
-"""Stochastic averaging of the energy envelope (DESIGN §2, paper §3), for any walls.
+"""Stochastic averaging of the energy envelope, for any walls.
+
+Theory: docs/theory.md, §Averaging to §Averaged transient (Section 3 of the paper).
 
 Applies when the potential increases with |x| on the strip x_L < x < x_R (one orbit
 per energy level; :func:`fpk_vibro.orbits.require_single_well` names the reason

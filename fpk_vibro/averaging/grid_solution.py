@@ -1,7 +1,8 @@
 """A density of the energy given on finite-volume cells, lifted to phase space.
 
 Under the averaging hypothesis the phase-space density is uniform in time along
-each orbit: p(x, y) = p(H)/T(H) at H = y²/2 + G(x) (DESIGN §2, paper Eq. 25).
+each orbit: p(x, y) = p(H)/T(H) at H = y²/2 + G(x) (docs/theory.md, §Averaged density;
+paper Eq. 25).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The averaged FPK in time (DESIGN §2):
+"""The averaged FPK in time (docs/theory.md, §Averaged transient):
 
     ∂p/∂t = −∂(m p)/∂H + ½ ∂²(σ² p)/∂H²  on (floor, H_max),  zero flux at both ends.
 

@@ -1,4 +1,6 @@
-"""Finite elements for the stationary 2-D FPK on the strip with impacts (DESIGN §3).
+"""Finite elements for the 2-D FPK on the strip with impacts.
+
+Theory: docs/theory.md, §FPK on the strip to §Transients.
 
 Public API
 ----------
@@ -7,37 +9,13 @@ Public API
 :func:`assemble_tensor` the same by Kronecker products on a tensor-product mesh
 :func:`domain`          the truncated strip and its walls (default ``y_max`` rule)
 
-Modules: ``forms`` (weak forms of DESIGN §3), ``impact`` (B± coupling),
-``generator`` (assembly of L, M), ``mesh``, ``solve``, ``positivity``,
+Modules: ``forms`` (the weak form, docs/theory.md, §Impact coupling), ``impact``
+(B± coupling), ``generator`` (assembly of L, M), ``mesh``, ``solve``, ``positivity``,
 ``solution`` (:class:`FEMSolution`), ``benchmark``.
 
-Measured (exact case r = 1, D2 = 0, paper a, b, c, D1, Δ; ny = 4 nx)
---------------------------------------------------------------------
-- Q1 and P1: L1 and max-norm order 2.0 (L1 5.4e-4, 1.3e-4, 3.4e-5, 8.4e-6,
-  2.2e-6 at nx = 32 … 500 for Q1).  Mass 1 to ~1e-15, min p ≥ 0 to 1e-9.
-- Q2/P2: order 2 (L1 7.8e-5, 1.7e-5, 4.0e-6, 9.8e-7 at nx = 16 … 128), about 8×
-  more accurate than Q1 per DOF; the largest error sits at (0, 0).  Cause: not
-  the quadrature (2k + 9 instead of 2k + 3 gives the same error to 1e-3), not the
-  pinned row (any replaced row gives the same vector: 1ᵀL = 0), not the impact
-  coupling (Δ = 3, where the walls carry ~1e-9 of the density, shows the same
-  order and location).  Refining only y at fixed nx leaves the error at (0, 0)
-  unchanged, while halving h_x divides it by 4.00 and the L1 error converges at
-  order ~3 in h_y: the order-2 component is the Galerkin discretisation of the
-  pure transport y ∂p/∂x (no diffusion in x) — the textbook loss of one order of
-  Galerkin for a first-order hyperbolic direction (Q1 keeps order 2 by the
-  symmetry of uniform meshes).  Raising it needs a different x-discretisation
-  (upwind/DG in x, order k + ½), not more quadrature.
-- ``positivity=True`` (:mod:`fpk_vibro.fem.positivity`: positive generator with
-  clipped QUICK transport fluxes): L1 order 2.25, 2.21, 2.11 (nx = 16 … 128,
-  ny = 2 nx), p ≥ 0 and mass 1 to 1e-15 on the hard cases r ∈ {0, 0.1, 0.3},
-  D1 = 0.002, where Galerkin reaches −8 % (r = 0.3) to −26 % (r = 0) of max p.
-- Speed (``python -m fpk_vibro.fem.benchmark``): L1 7.1e-6 with Q2, nx = 48
-  (37 345 DOFs) in 0.3 s; 10⁶ Q1 DOFs assembled + solved in 19–46 s (machine
-  load); the straightforward path (general assembly + SuperLU/COLAMD) is 3–11×
-  slower where it was run.  pyamg (AIR, smoothed aggregation) does not converge on
-  the Galerkin matrix; it does on the positive generator's step matrix M − dt A
-  (7–11 iterations at any size), where ``fem.solve.factorised`` picks it by size
-  (docs/fem_solvers.md).
+Measured accuracy and speed on the exact case (orders of Q1/Q2/P1/P2 and of the
+positive scheme, where Q2's error sits and why, timings): docs/measurements.md,
+§Finite elements on the exact case.
 """
 from __future__ import annotations
 
@@ -59,10 +37,11 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                solver: str = "auto", element: str = "quad", grading: float = 0.0,
                positivity: bool | str = "auto", assembly: str = "auto") -> FEMSolution:
-    """Stationary density of the 2-D FPK with impact coupling (DESIGN §3).
+    """Stationary density of the 2-D FPK with impact coupling.
 
     Solves L p = 0, ∫ p = 1 where L is the conservative Galerkin generator
-    (``assemble``: ∫ J·∇q − B₊ − B₋, DESIGN §3) on a mesh of the strip.
+    (``assemble``: ∫ J·∇q − B₊ − B₋; docs/theory.md, §Impact coupling) on a mesh
+    of the strip.
 
     Parameters
     ----------

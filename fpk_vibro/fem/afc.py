@@ -1,4 +1,5 @@
-"""Algebraic upwinding and flux correction of the Galerkin generator (DESIGN §3).
+"""Algebraic upwinding and flux correction of the Galerkin generator (docs/theory.md,
+§Positivity).
 
 For general (loaded or triangular) meshes, where the tensor-grid generator of
 :mod:`fpk_vibro.fem.positivity` does not apply.

@@ -1,4 +1,4 @@
-"""Benchmark of the FEM solver on the exact case (DESIGN §3, §5).
+"""Benchmark of the FEM solver on the exact case (docs/theory.md, §Exact solution).
 
 Run ``python -m fpk_vibro.fem.benchmark`` (``--help`` for options).  For each
 degree, level and solver it prints DOFs, assembly and solve seconds, the L1 and

@@ -1,9 +1,9 @@
 """The one FE front door: a discretisation built once, used by every FE solver.
 
 :func:`build` turns the system and validated :class:`~fpk_vibro.fem.Options` into a
-:class:`Discretisation`: the mesh, the generator L and mass matrix M (DESIGN §3:
-``M dp/dt = L p``), the map from the solver's vector to the mesh DOFs, and which
-discretisation it is:
+:class:`Discretisation`: the mesh, the generator L and mass matrix M
+(``M dp/dt = L p``; docs/theory.md, §Assembly and solve), the map from the solver's
+vector to the mesh DOFs, and which discretisation it is:
 
 - ``"galerkin"``: the conservative Galerkin generator (Kronecker-product assembly
   on the structured quadrilateral mesh, general skfem assembly otherwise);

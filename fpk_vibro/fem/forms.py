@@ -1,6 +1,6 @@
-"""Weak forms of the FPK generator (DESIGN §3), written as the mathematics reads.
+"""Weak forms of the FPK generator, written as the mathematics reads.
 
-DESIGN §3 writes the FPK as ∂p/∂t = −∇·J with
+The FPK (docs/theory.md, §FPK on the strip) is ∂p/∂t = −∇·J with
 
     J = ( y p,  −(c y + a x + b x³) p − D(x) ∂p/∂y ),   D(x) = D1 + D2 x²,
 
@@ -15,7 +15,7 @@ terms active for a system are assembled.  The impact terms B± are in
 
 The second group are the 1-D factors of the same terms on a tensor-product mesh:
 every term is (function of x) × (function of y), so its matrix is the Kronecker
-product of two 1-D matrices (DESIGN §3, last trial fact).
+product of two 1-D matrices (docs/theory.md, §Assembly and solve).
 """
 from __future__ import annotations
 

@@ -1,4 +1,6 @@
-"""Assembly of the FPK generator L and the mass matrix M (DESIGN §3).
+"""Assembly of the FPK generator L and the mass matrix M.
+
+Theory: docs/theory.md, §Impact coupling and §Assembly and solve.
 
 The semi-discrete FPK is ``M dp/dt = L p`` with
 
@@ -14,7 +16,7 @@ Two assemblers give the same matrices:
   (quadrilaterals or triangles, degree 1 or 2);
 - :func:`assemble_tensor` — on a tensor-product mesh each term of J·∇q is
   (function of x) × (function of y), so L is a short sum of Kronecker products of
-  1-D matrices (DESIGN §3): far fewer quadrature points and no 2-D element loop.
+  1-D matrices: far fewer quadrature points and no 2-D element loop.
 """
 from __future__ import annotations
 
@@ -36,7 +38,8 @@ __all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
 
 def quadrature_order(degree: int) -> int:
     """Gauss exactness used: 2k + 3 integrates the cubic restoring term exactly
-    against Q_k / P_k products (DESIGN §3: coefficients are cubic in x)."""
+    against Q_k / P_k products (coefficients cubic in x; docs/theory.md,
+    §Assembly and solve)."""
     return 2 * degree + 3
 
 
@@ -51,7 +54,7 @@ def element_for(mesh: skfem.Mesh, degree: int) -> skfem.Element:
 
 
 def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
-    """The walls of the strip covered by ``mesh`` (DESIGN §3).
+    """The walls of the strip covered by ``mesh`` (docs/theory.md, §Walls).
 
     Each wall of the system carries its own r; a truncated side without a wall is
     an elastic wall (r = 1).  Raises ValueError if a wall is not on the mesh edge.
@@ -66,7 +69,8 @@ def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
     if abs(y0 + y1) > 1e-9 * max(1.0, y1):
         raise ValueError(f"mesh: y-range [{y0}, {y1}] must be symmetric about y = 0")
     if not np.any(np.abs(mesh.p[1]) <= 1e-12 * y1):
-        raise ValueError("mesh: y = 0 must be a mesh line (DESIGN §3)")
+        raise ValueError("mesh: y = 0 must be a mesh line (the walls' outflow and inflow "
+                         "halves must be unions of cell edges)")
     rl, rr = wall_restitutions(system)
     return Domain(x0, x1, y1, (Wall(x0, rl, -1), Wall(x1, rr, +1)))
 
@@ -87,7 +91,8 @@ def assemble(system: VibroImpactSystem, basis: skfem.CellBasis, *,
     Returns
     -------
     L, M : scipy.sparse.csr_matrix
-        Generator (∂p/∂t = L p weakly, DESIGN §3) and mass matrix, basis DOF order.
+        Generator (∂p/∂t = L p weakly; docs/theory.md, §Impact coupling) and mass
+        matrix, basis DOF order.
     """
     dom = mesh_domain(system, basis.mesh)
     s = system
@@ -188,7 +193,7 @@ def assemble_tensor(system: VibroImpactSystem, xnodes: np.ndarray, ynodes: np.nd
 
 
 def kron_sum(terms: list[tuple[sp.spmatrix, sp.spmatrix]]) -> sp.csr_matrix:
-    """Σ_t X_t ⊗ Y_t in one pass (the Kronecker products of DESIGN §3).
+    """Σ_t X_t ⊗ Y_t in one pass (docs/theory.md, §Assembly and solve).
 
     All X_t (and all Y_t) are put on their common sparsity pattern, stored as
     padded row arrays (1-D FE matrices have a few entries per row).  Row (i, k) of

@@ -1,7 +1,10 @@
-"""The impact coupling B± of the conservative weak form (DESIGN §3).
+"""The impact coupling B± of the conservative weak form.
+
+Theory: docs/theory.md, §Impact coupling.
 
 At a wall x = x_w with outflow direction ``side`` (+1 at the right wall, −1 at the
-left one) DESIGN §3 gives
+left one) the impact condition p(x_w, −r v) = p(x_w, v)/r² turns the boundary term
+into
 
     B(p, q) = ∫_{side·v > 0} |v| p(x_w, v) [ q(x_w, v) − q(x_w, −r v) ] dv,
 

@@ -1,10 +1,10 @@
-"""Domain and meshes of the strip (DESIGN §3).
+"""Domain and meshes of the strip (docs/theory.md, §FPK on the strip).
 
-The FPK of DESIGN §3 is posed on the strip ``xL < x < xR``, ``|y| < Y``.  Each end
+The FPK is posed on the strip ``xL < x < xR``, ``|y| < Y``.  Each end
 ``x = xL`` / ``x = xR`` is a *wall* with a restitution coefficient: a wall of the
 system (``system.left`` / ``system.right``) carries its own ``r``; on a side without
 a wall the strip is truncated at ``|x| = X`` with negligible mass beyond and an
-elastic wall (r = 1) is put there, which conserves mass (DESIGN §3, last line).
+elastic wall (r = 1) is put there, which conserves mass (docs/theory.md, §Walls).
 
 Default truncation (used when ``y_max`` is not given): the energy H_t above which
 the tail bound of :mod:`fpk_vibro.scales` holds less than ``TAIL_MASS`` (1e-8):
@@ -32,7 +32,7 @@ __all__ = ["Wall", "Domain", "domain", "default_y_max", "axis_nodes",
 class Wall:
     """A wall x = ``x`` with restitution ``r``; ``side`` is +1 (right) or −1 (left).
 
-    Its outflow half is ``side · y > 0`` (DESIGN §3, B±).
+    Its outflow half is ``side · y > 0`` (docs/theory.md, §Impact coupling).
     """
     x: float
     r: float
@@ -88,7 +88,7 @@ def axis_nodes(lo: float, hi: float, n: int, grading: float = 0.0,
 
     The map is ξ ↦ centre + s·sinh(g ξ)/sinh(g) on each side of ``centre``
     (uniform for g = 0).  ``centre`` (if given) is always a node, so y = 0 stays a
-    mesh line (DESIGN §3); ``n`` must then be even.
+    mesh line (docs/theory.md, §Assembly and solve); ``n`` must then be even.
     """
     if centre is None:
         xi = np.linspace(-1.0, 1.0, n + 1)

@@ -1,19 +1,19 @@
-"""Positivity-preserving discretisations of the stationary FPK (DESIGN §3).
+"""Positivity-preserving discretisations of the stationary FPK.
 
-Plain Galerkin goes negative next to (±Δ, 0) for small r and weak noise
-(DESIGN §3, "Hard case": −19 … −26 % of max p at r = 0, −5 … −8 % at
-r = 0.3, D1 = 0.002, measured below).  Everything here rests on the fact quoted there: a
-matrix with non-negative off-diagonals and zero column sums (a *generator*) has
-a non-negative null vector (Perron–Frobenius); normalised, it is a density with
-mass exactly 1.
+Theory: docs/theory.md, §Positivity.  Plain Galerkin goes negative next to (±Δ, 0)
+for small r and weak noise (−19 … −26 % of max p at r = 0, −5 … −8 % at r = 0.3,
+D1 = 0.002; docs/measurements.md, §Positive generator).  Everything here rests on
+one fact: a matrix with non-negative off-diagonals and zero column sums (a
+*generator*) has a non-negative null vector (Perron–Frobenius); normalised, it is a
+density with mass exactly 1.
 
 A. The positive tensor-grid generator (:func:`positive_generator`)
 ------------------------------------------------------------------
 On the grid x_i × y_k of the structured Q1 mesh, with the dual (median) cells
 of area m_i^x m_k^y (= ∫ of the Q1 hat functions) and nodal values p_ik, the
-flux J of DESIGN §3 is split into three parts, each written as *mass moving
-from a node to a neighbour at a non-negative rate times p at the source* (a
-generator block):
+flux J (docs/theory.md, §FPK on the strip) is split into three parts, each written
+as *mass moving from a node to a neighbour at a non-negative rate times p at the
+source* (a generator block):
 
 - x-transport y p: through the x-faces of the dual cells, rate |y_k| m_k^y g^x_ik
   from the upwind node (direction sign y_k);
@@ -22,8 +22,8 @@ generator block):
 - dissipative y part −c y p − D(x) ∂p/∂y: Scharfetter–Gummel fluxes
   (D/h) m_i^x [B(−P) p_lo − B(P) p_hi], P = −c y_face h / D, B(z) = z/(eᶻ−1) > 0
   (exact for the 1-D Ornstein–Uhlenbeck balance at any cell Péclet number);
-- walls (B± of DESIGN §3): outflow |y_k| m_k^y p at the wall node, re-injected
-  over the image −r·[dual cell of k] and shared by overlap
+- walls (B± of docs/theory.md, §Impact coupling): outflow |y_k| m_k^y p at the wall
+  node, re-injected over the image −r·[dual cell of k] and shared by overlap
   (:func:`wall_injection`); r = 0 puts it at y = 0.  Mass conservative for every r.
 
 With g ≡ 1 this is first order ("first-order").  Separating the Hamiltonian
@@ -47,75 +47,9 @@ discrete maximum principle, positivity comes from the generator structure.
 C. Algebraic upwinding and AFC of the Galerkin matrix (general meshes): see
 :mod:`fpk_vibro.fem.afc`.
 
-Measured (2-core machine shared with other jobs, so seconds are ±50 %; Q1 grid,
-ny = 2 nx, default y_max of :func:`~fpk_vibro.fem.mesh.domain` as of
-2026-11-22; E[H] from ``FEMSolution.moments``; Galerkin = ``positivity=False``)
-------------------------------------------------------------------------------
-Exact case (r = 1, D2 = 0, paper a, b, c, D1, Δ; E[H] = 0.254011):
-
-- QUICK (``True``): L1 error 5.63e-2, 1.18e-2, 2.55e-3, 5.90e-4 at
-  nx = 16, 32, 64, 128 — observed order 2.25, 2.21, 2.11 (1.42e-4 at nx = 256
-  with the earlier y_max = 3.62: order 2.05); E[H] 0.272841, 0.258295,
-  0.255078, 0.254277 (0.254078 at 256; error order 2.1, 2.0, 2.0, 2.0);
-  min p/max p ≥ 5e-14; 21–53 Picard iterations; 0.4, 1.4, 4.1, 7.9 s (40 s at
-  256).  The max-norm error (3.7e-2, 1.0e-2, 5.1e-3, 2.7e-3, 1.4e-3) sits at
-  the wall x = −Δ, y ≈ 0.2 and converges at order ~1 there: the lumped
-  first-order wall half-cell.  (Galerkin Q1 reaches L1 5.4e-4 already at
-  nx = 32, ny = 128: the positive scheme costs ~4× the resolution.)
-- van Albada (``"van-albada"``): L1 1.57e-1, 3.20e-2, 5.63e-3, 1.05e-3 at
-  nx = 16 … 128 (order 2.29, 2.51, 2.42; 2.17e-4 at 256, order 2.27); E[H]
-  0.334178, 0.268916, 0.256615, 0.254499.
-- First order (``"first-order"``): E[H] 0.634, 0.447, 0.351, 0.303 at
-  nx = 32 … 256 (L1 0.51, 0.32, 0.19, 0.105: order 0.6–0.9).  Anisotropic
-  (y_max 3.62): at ny = 64, nx = 128 … 1024 gives E[H] 0.607 … 0.599 and at
-  ny = 128, nx = 256 … 1024 0.431 … 0.427 — the first-order error is in y (the
-  upwinded Hamiltonian drift), not in x.  For the limited schemes the error is
-  balanced: van Albada at ny = 64 gives L1 2.2e-2 for nx = 64 … 512, and at
-  nx = 64 L1 5.6e-3, 3.1e-3, 2.8e-3 for ny = 128, 256, 512; QUICK at
-  nx = 256, ny = 64 did not converge in 300 Picard iterations (L1 4.6e-3), at
-  nx = 64, ny = 256 L1 2.2e-3.  Refine both directions (ny = 2 nx).
-- Algebraic upwinding (``"upwind"``): E[H] 1.588, 1.093, 0.621 at
-  nx = 32, 64, 128 — the SG/upwind generator is 3.5× closer on the same grid
-  even unlimited.
-
-Hard cases (D1 = 0.002, D2 = 0, paper otherwise; y_max = 0.958), E[H] at
-nx = 16, 32, 64, 128 (Galerkin at 32, 64, 128):
-
-- r = 0:   QUICK 0.067781, 0.064360, 0.063784, 0.063655 (differences 3.4e-3,
-  5.8e-4, 1.3e-4); Galerkin 0.063621, 0.063598, 0.063592 with min p/max p =
-  −0.19, −0.26, −0.21.
-- r = 0.1: QUICK 0.067793, 0.064330, 0.063758, 0.063633; Galerkin 0.063608,
-  0.063578, 0.063571 (min −0.050, −0.088, −0.13 of max p).
-- r = 0.3: QUICK 0.068103, 0.064560, 0.063955, 0.063818; Galerkin 0.063796,
-  0.063769, 0.063761 (min −0.049, −0.073, −0.083 of max p).  van Albada
-  0.076675, 0.066627, 0.064560, 0.063952; first order 0.1084, 0.0946, 0.0833,
-  0.0751 (nx = 32 … 256).
-- QUICK: min p/max p ≥ 0 in every run (smallest values 1e-13 … 1e-52, the
-  y-tails); |mass − 1| ≤ 9e-16; 37–57 Picard iterations; about 0.3–1.5, 0.7–2.4,
-  1.8–2.9, 8–18 s.
-
-Geometry (r = 0.5, D1 = 0.01, D2 = 0), E[H] at nx = 16, 32, 64, 128:
-
-- Δ = 0.1: QUICK 0.011695, 0.011535, 0.011498, 0.011489; Galerkin 0.011496,
-  0.011489, 0.011488 (nx = 32 … 128; min −3.4e-6 … −2.6e-6 of max p).  With
-  the earlier y_max = 3.62 the density spanned 1e-250 and SuperLU failed when
-  the pinned row was a tail node: we pin a high-density node (argmax p).
-- Δ = 3: QUICK 0.552293, 0.397166, 0.384701, 0.384470; Galerkin 0.384344,
-  0.384317, 0.384310 (nx = 32 … 128; min −5e-9 … −3e-9 of max p).  85–135
-  Picard iterations (the slowest case: 0.4, 1.1, 4.3, 23 s).
-
-Paper cases (D2 = 0.01; y_max 3.62), E[H] at nx = 32, 64, 128: r = 0.92 QUICK
-0.171556, 0.166967, 0.166324 vs Galerkin 0.166271, 0.166126, 0.166089; r = 0.98
-QUICK 0.222426, 0.217105, 0.215236 vs Galerkin 0.214917, 0.214773, 0.214737.
-The twelve cases of ``tests/test_hard_cases.py`` at their coarse grid (nx = 48,
-96 for D1 = 1e-4 and Δ = 5, 64 for the double well): QUICK ≥ 0 everywhere,
-within 0.1–0.6 % of Galerkin's E[H] (3 % for the double well), 17–155 Picard
-iterations, 0.5–24 s (Δ = 5 the slowest).
-Wide truncated domains (r = 0.8, ``barriers="right"`` / ``"none"``, earlier
-Gibbs truncation): QUICK was far from asymptotic — "right" 1.514, 0.488, 0.250
-(Galerkin −0.379, 0.339, 0.191 with min −1.7 … −0.015 of max p); "none" 4.51,
-1.43, 0.647 (Galerkin 0.565, 0.556, 0.552) with 250, 300 (not converged,
-RuntimeWarning), 212 Picard iterations and 78 s at nx = 128.
+Measurements (the exact case, the hard cases, geometry, the paper cases, wide
+truncated domains; orders, E[H], Picard iterations, seconds): docs/measurements.md,
+§Positive generator.
 
 Open: the first-order wall half-cell (max-norm order 1 at the wall); Picard
 iterations (20–150, one sparse LU each) dominate the cost — a Newton step with
@@ -160,11 +94,12 @@ def dual_weights(nodes: np.ndarray) -> np.ndarray:
 
 def wall_injection(ynodes: np.ndarray, r: float, side: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Conservative re-injection of the wall outflow (DESIGN §3, B±), lumped.
+    """Conservative re-injection of the wall outflow (B±; docs/theory.md, §Impact coupling),
+    lumped.
 
     The outflow node k (``side · y_k > 0``) owns the dual cell [lo_k, hi_k]; its
     outflow re-enters over the image −r·[lo_k, hi_k] (width r·(hi_k − lo_k): the
-    1/r² jump of DESIGN §3 in integrated form), shared among the dual cells j in
+    1/r² jump of the impact condition in integrated form), shared among the dual cells j in
     proportion to the overlap.  For r = 0 (or a degenerate image) all of it goes
     to the node whose dual cell contains y = 0.
 

@@ -10,7 +10,8 @@ How the derived quantities are computed from the FE function p_h(x, y):
 
       p(H) = ∫ Σ_± p(x, ±√(2H − 2G(x))) / √(2H − 2G(x)) dx   over {G(x) < H} ∩ strip,
 
-  and with x = A sin θ (A the amplitude, DESIGN §2) the integrand is smooth:
+  and with x = A sin θ (A the amplitude; docs/theory.md, §Energy and orbits) the
+  integrand is smooth:
   dx / √(2H − 2G) = dθ / √(a + b A² (1 + sin²θ)/2); θ runs over the part of
   [−π/2, π/2] inside the strip; Gauss–Legendre in θ.  Needs a monotone G on each
   side (a > 0); otherwise NotImplementedError.
@@ -66,7 +67,7 @@ def _rows(P) -> tuple[np.ndarray, np.ndarray]:
 
 
 class FEMSolution(Solution):
-    """Stationary FE density on a mesh of the strip (DESIGN §3).
+    """Stationary FE density on a mesh of the strip (docs/theory.md, §FPK on the strip).
 
     Attributes
     ----------

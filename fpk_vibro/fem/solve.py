@@ -1,4 +1,5 @@
-"""Linear solvers for the singular stationary system L p = 0, ∫ p = 1 (DESIGN §3).
+"""Linear solvers for the singular stationary system L p = 0, ∫ p = 1 (docs/theory.md,
+§Assembly and solve).
 
 Normalisation by a *replaced row*: since 1ᵀ L = 0 the rows of L are linearly
 dependent, so any one row ``k`` is implied by the others and can be replaced by the
@@ -8,8 +9,8 @@ is one-dimensional) normalised null vector:
     A = L with row k replaced by uᵀ,     A p = e_k.
 
 Which row is replaced therefore changes only round-off, not the discrete solution.
-Trial runs (DESIGN §3) measured this 5–20× faster with SciPy's SuperLU than a
-bordered system, and COLAMD ordering ~10× better than MMD_AT_PLUS_A.
+In the comparison that chose it, this solved 5–20× faster with SciPy's SuperLU than a
+bordered (Lagrange-multiplier) system; the orderings used are discussed below.
 
 Solvers
 -------
@@ -29,23 +30,17 @@ Solvers
 matrix K = a·M − h·L: SuperLU, or AMG when K is an M-matrix (lumped M, positive
 generator) too large for its LU to fit (see its docstring).
 
-Where AMG fits (measured, ``python -m fpk_vibro.fem.benchmark --amg-sizes``, exact
-case, ny = 4 nx, 2 shared cores).  On the Galerkin L (pinned, or M − dt L with
-the consistent mass) AIR, smoothed aggregation and root-node do not converge
-(residual 0.4–80 after 100–200 iterations, or NaN in the SA/root-node setup): the
-Galerkin transport couplings are negative, not an M-matrix.  On the positive
-generator A, AIR + GMRES converges in 7–10 iterations on M − dt A (dt = 0.3 and
-0.03, size-independent).  One solve of M − dt A (dt = 0.3): SuperLU 0.1, 1.1, 20,
-91, 409 s (peak RSS 0.08, 0.16, 0.47, 1.74, 7.2 GB) against AMG 2.8, 12, 29, 79,
-185 s (0.09, 0.14, 0.33, 1.06, 3.9 GB) at 1e4, 6.6e4, 2.6e5, 1e6, 4e6 DOFs; the
-AMG setup is most of it (166 s of 185 s at 4e6; 328 of 396 s in a busier run,
-where SuperLU took 556 s).  At 1.0e7 DOFs AMG solves it in 266 s (11
-iterations, 9.0 GB) while SuperLU fails after 382 s under a 15 GB address-space
-cap ("gstrf was called with invalid arguments").  At 4e6 SuperLU still fits (7.2 GB of 24), so AMG
-is chosen by size only for one-off solves, and for reused step matrices only
-when the LU would not fit (:func:`factorised`).  On the pinned −A (stationary) the
-iterations grow with size and AMG misses 1e-10 at 1e6 DOFs, so the stationary
-"auto" stays direct (:data:`AMG_MIN_DOFS_STATIONARY`).
+Where AMG fits (``python -m fpk_vibro.fem.benchmark --amg-sizes``; the measurements,
+up to 10⁷ DOFs with peak memory, are in ``docs/fem_solvers.md``).  On the Galerkin L
+(pinned, or M − dt L with the consistent mass) AIR, smoothed aggregation and
+root-node do not converge: the Galerkin transport couplings are negative, not an
+M-matrix.  On the positive generator A, AIR + GMRES converges in a size-independent
+7–11 iterations on M − dt A; one solve costs less time and memory than SuperLU from
+about 10⁶ DOFs on, and at 10⁷ DOFs AMG solves where SuperLU runs out of memory.  A
+reused LU costs only its solves, so AMG is chosen by size for one-off solves, and
+for reused step matrices only when the LU would not fit (:func:`factorised`).  On the
+pinned −A (stationary) the iterations grow with size and AMG misses 1e-10 at 10⁶
+DOFs, so the stationary "auto" stays direct (:data:`AMG_MIN_DOFS_STATIONARY`).
 
 Two measured facts shape the direct solver.  (i) The normalisation row uᵀ is
 dense; with it SuperLU's fill explodes (a 17k-DOF Q1 system filled 1.5·10⁷

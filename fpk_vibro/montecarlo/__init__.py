@@ -1,6 +1,6 @@
-"""Monte Carlo simulation of the vibro-impact SDE (DESIGN §4).
+"""Monte Carlo simulation of the vibro-impact SDE (docs/theory.md, §Monte Carlo).
 
-Model (DESIGN §1; the paper's Eq. 1 in Itô form)::
+Model (docs/theory.md, §Model; the paper's Eq. 1 in Itô form)::
 
     dx = y dt,   dy = −(c y + a x + b x³) dt + sqrt(2 D1 + 2 D2 x²) dW,
     y⁺ = −r_L y⁻  at x = x_L,   y⁺ = −r_R y⁻  at x = x_R,

@@ -156,7 +156,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                max_t_sample: float | None = None, sample_every: int | None = None,
                max_impacts: int = 64, progress: bool | None = None,
                threads: int | None = None) -> MonteCarloSolution:
-    """Stationary densities and moments by time-and-ensemble averages (DESIGN §4).
+    """Stationary densities and moments by time-and-ensemble averages (docs/theory.md, §Monte Carlo).
 
     Parameters
     ----------
@@ -315,7 +315,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               quantities: Sequence[str] = QUANTITIES, bins: int | dict = 60,
               n_batches: int = 32, max_impacts: int = 64,
               progress: bool | None = None, threads: int | None = None) -> TransientRun:
-    """Ensemble densities at given times from an initial density (DESIGN §4).
+    """Ensemble densities at given times from an initial density (docs/theory.md, §Monte Carlo).
 
     Parameters
     ----------

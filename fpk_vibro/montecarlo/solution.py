@@ -1,4 +1,4 @@
-"""The Monte Carlo result: histograms with standard errors (DESIGN §4)."""
+"""The Monte Carlo result: histograms with standard errors (docs/theory.md, §Monte Carlo)."""
 from __future__ import annotations
 
 from typing import Any
