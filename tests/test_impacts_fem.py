@@ -100,3 +100,13 @@ def test_first_passage_bad_input_is_one_line(kwargs, words):
     with pytest.raises(ValueError) as exc:
         fem.first_passage(PAPER, **kwargs)
     assert words in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_mean_time_on_a_grid_covering_the_safe_set():
+    """Points between the curved boundary H = H_c and the mesh's straight edges get a
+    value (τ is O(h²) there), not an error."""
+    fp = fem.first_passage(PAPER, energy=0.5)
+    X, Y = np.meshgrid(np.linspace(-0.6, 0.6, 61), np.linspace(-1.0, 1.0, 81))
+    T = fp.mean_time(X, Y)
+    assert T.shape == X.shape and np.all(T >= 0) and np.all(np.isfinite(T))
+    assert np.all(T[PAPER.energy(X, Y) >= 0.5] == 0) and T.max() == pytest.approx(fp.mean, rel=0.02)

@@ -154,8 +154,23 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
             "free_dofs": int(free.size), "seconds": time.perf_counter() - t0,
             "x_range": (float(mesh.p[0].min()), float(mesh.p[0].max()))}
     return FirstPassage("fem", system, H_c, (kind, value), mean, 0.0, T, R, None, info,
-                        _mean_at=lambda x, y: np.where(system.energy(x, y) < H_c,
-                                                       tau_h.pdf_joint(x, y), 0.0))
+                        _mean_at=lambda x, y: _tau_at(tau_h, mesh, system, H_c, x, y))
+
+
+def _tau_at(tau_h: FEMSolution, mesh, system, H_c: float, x, y) -> np.ndarray:
+    """τ_h(x, y): 0 outside the safe set; a point between the curved boundary and the
+    mesh's straight edge (where τ is O(h²)) is read on the edge."""
+    x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+    inside = (system.energy(x, y) < H_c) & (x >= mesh.p[0].min()) & (x <= mesh.p[0].max())
+    top = mesh.p[:, mesh.p[1] >= 0]
+    order = np.lexsort((-top[1], top[0]))           # per x, the highest node first
+    xs, first = np.unique(top[0][order], return_index=True)
+    edge = np.interp(x, xs, top[1][order][first]) * (1.0 - 1e-9)
+    yc = np.clip(y, -edge, edge)
+    out = np.zeros(x.shape)
+    if np.any(inside):
+        out[inside] = tau_h.pdf_joint(x[inside], yc[inside])
+    return out
 
 
 def _start_density(system, kind, value, points, H_c) -> np.ndarray:
