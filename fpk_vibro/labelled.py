@@ -153,36 +153,44 @@ def run_dataset(out_dir: str | Path):
         coords[f"param_{k}"] = ("point", [p.get("parameters", {}).get(k, np.nan) for p in points])
     if transient:
         coords["time"] = np.asarray(times, dtype=float)
-    data.update(_densities(Path(out_dir), points, methods))
+    data.update(_densities(Path(out_dir), points, methods, len(times)))
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({"name": doc.get("name", ""), "fpk_vibro_version": doc.get("fpk_vibro_version", ""),
                      "status": doc.get("status", ""), "scene": _attr(doc.get("scene", {}))})
     return ds
 
 
-def _densities(out_dir: Path, points: list, methods: list[str]) -> dict[str, Any]:
-    """pdf_<q>(point, method, <q>_index) and <q>_grid(point, <q>_index) from densities.npz."""
+def _densities(out_dir: Path, points: list, methods: list[str], n_times: int = 0
+               ) -> dict[str, Any]:
+    """pdf_<q>(point, method[, time], <q>_index) and <q>_grid(point[, time], <q>_index)
+    from densities.npz (grids differ between points and times)."""
     f = out_dir / "densities.npz"
     if not f.exists():
         return {}
+    tags = [f".t{k}" for k in range(n_times)] if n_times else [""]
     out: dict[str, Any] = {}
     with np.load(f) as npz:
         for q in ("energy", "x", "y"):
-            grids = {i: npz[f"p{i}.{m}.{q}.grid"] for i in range(len(points)) for m in methods
-                     if f"p{i}.{m}.{q}.grid" in npz.files}
-            if not grids:
+            found = {(i, k): npz[f"p{i}.{m}.{q}{tag}.grid"] for i in range(len(points))
+                     for k, tag in enumerate(tags) for m in methods
+                     if f"p{i}.{m}.{q}{tag}.grid" in npz.files}
+            if not found:
                 continue
-            n = max(g.size for g in grids.values())
-            grid = np.full((len(points), n), np.nan)
-            pdf = np.full((len(points), len(methods), n), np.nan)
-            for i, g in grids.items():
-                grid[i, :g.size] = g
+            n = max(g.size for g in found.values())
+            grid = np.full((len(points), len(tags), n), np.nan)
+            pdf = np.full((len(points), len(methods), len(tags), n), np.nan)
+            for (i, k), g in found.items():
+                grid[i, k, :g.size] = g
                 for j, m in enumerate(methods):
-                    key = f"p{i}.{m}.{q}.pdf"
+                    key = f"p{i}.{m}.{q}{tags[k]}.pdf"
                     if key in npz.files:
-                        pdf[i, j, :g.size] = npz[key]
-            out[f"{q}_grid"] = (("point", f"{q}_index"), grid)
-            out[f"pdf_{q}"] = (("point", "method", f"{q}_index"), pdf)
+                        pdf[i, j, k, :g.size] = npz[key]
+            if n_times:
+                out[f"{q}_grid"] = (("point", "time", f"{q}_index"), grid)
+                out[f"pdf_{q}"] = (("point", "method", "time", f"{q}_index"), pdf)
+            else:
+                out[f"{q}_grid"] = (("point", f"{q}_index"), grid[:, 0])
+                out[f"pdf_{q}"] = (("point", "method", f"{q}_index"), pdf[:, :, 0])
     return out
 
 

@@ -70,6 +70,27 @@ def _moments_record(sol: Any) -> dict[str, Any]:
     return rec
 
 
+def _density_arrays(snapshots: dict, grids: dict, quantities: list, index: int,
+                    tag: str = "") -> dict[str, np.ndarray]:
+    """The densities of one point (and time ``tag``) on their grids, npz-keyed."""
+    arrays: dict[str, np.ndarray] = {}
+    for m, sol in snapshots.items():
+        for q in quantities:
+            key = f"p{index}.{m}.{q}{tag}"
+            if q == "joint":
+                gx, gy = grids["joint"]
+                arrays[f"{key}.x"], arrays[f"{key}.y"] = gx, gy
+                arrays[f"{key}.pdf"] = sol.pdf_joint(gx[None, :], gy[:, None])
+                continue
+            g = grids[q]
+            arrays[f"{key}.grid"] = g
+            arrays[f"{key}.pdf"] = getattr(sol, "pdf_" + q)(g)
+            if m == "montecarlo":
+                edges, dens, se = sol.histogram(q)
+                arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"] = edges, dens, se
+    return arrays
+
+
 def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
                  passages: dict[str, Any]) -> dict[str, Any]:
     """Impact statistics and first passage of one method, if the scene asks for them."""
@@ -130,30 +151,23 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
     arrays: dict[str, np.ndarray] = {}
     want_density = [q for q in scene.quantities if q in ("energy", "x", "y", "joint")]
     if want_density:
-        snapshots = {m: (s[-1] if scene.transient else s) for m, s in solutions.items()}
-        ref = next(iter(snapshots.values()))
-        grids = grids_for(system, ref)
-        for m, sol in snapshots.items():
-            for q in want_density:
-                key = f"p{index}.{m}.{q}"
-                if q == "joint":
-                    gx, gy = grids["joint"]
-                    arrays[f"{key}.x"], arrays[f"{key}.y"] = gx, gy
-                    arrays[f"{key}.pdf"] = sol.pdf_joint(gx[None, :], gy[:, None])
-                else:
-                    g = grids[q]
-                    arrays[f"{key}.grid"] = g
-                    arrays[f"{key}.pdf"] = getattr(sol, "pdf_" + q)(g)
-                    if m == "montecarlo":
-                        edges, dens, se = sol.histogram(q)
-                        arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"] = edges, dens, se
-        if "png" in scene.formats:
-            title = f"{scene.name}" + ("" if not params else " — " + ", ".join(
-                f"{k} = {v:g}" for k, v in params.items()))
-            if scene.transient:
-                title += f", t = {scene.times[-1]:g}"
-            record["figures"] = [str(p.name) for p in plotting.scene_figures(
-                snapshots, grids, want_density, out_dir, f"p{index}", title)]
+        title = f"{scene.name}" + ("" if not params else " — " + ", ".join(
+            f"{k} = {v:g}" for k, v in params.items()))
+        # a transient: every requested time (arrays "….t{k}", figures "p{i}_t{k}_…"),
+        # and the last time also under the stationary keys
+        steps = list(enumerate(scene.times)) if scene.transient else [(None, None)]
+        record["figures"] = []
+        for k, t in steps:
+            snapshots = {m: (s[k] if k is not None else s) for m, s in solutions.items()}
+            grids = grids_for(system, next(iter(snapshots.values())))
+            tags = [f".t{k}"] + ([""] if k == len(steps) - 1 else []) if k is not None else [""]
+            for tag in tags:
+                arrays.update(_density_arrays(snapshots, grids, want_density, index, tag))
+            if "png" in scene.formats:
+                record["figures"] += [str(p.name) for p in plotting.scene_figures(
+                    snapshots, grids, want_density, out_dir,
+                    f"p{index}" if k is None else f"p{index}_t{k}",
+                    title if t is None else f"{title}, t = {t:g}")]
     if "png" in scene.formats and ("impacts" in scene.quantities and system.has_barrier
                                    or passages):
         figs = record.setdefault("figures", [])

@@ -86,12 +86,17 @@ def test_swept_run_is_one_dataset(tmp_path):
 def test_transient_run_holds_every_time(tmp_path):
     scene = tmp_path / "t.toml"
     scene.write_text(SCENE.format(extra="times = [0.5, 1.0, 2.0]\n[initial]\nmean = [0.1, 0.3]\n"
-                                        "std = [0.1, 0.2]", mc=""))
+                                        "std = [0.1, 0.2]", mc="")
+                     .replace('formats = ["json", "npz", "nc"]', 'formats = ["json", "npz", "nc", "png"]'))
     assert cli.main(["run", str(scene), "--out", str(tmp_path / "o"), "--quiet"]) == 0
     ds = run_dataset(tmp_path / "o")
     assert list(ds["time"].values) == [0.5, 1.0, 2.0]
     assert ds["E_H"].dims == ("point", "method", "time")
     assert np.all(np.isfinite(ds["E_H"].values))
+    assert ds["pdf_energy"].dims == ("point", "method", "time", "energy_index")
+    assert np.all(np.isfinite(ds["pdf_energy"].values))          # every time, both methods
+    figs = list((tmp_path / "o").glob("p0_t*_energy.png"))
+    assert len(figs) == 3
 
 
 def test_nc_without_xarray_is_one_line(monkeypatch, tmp_path):
