@@ -44,19 +44,28 @@ def _save(fig, path) -> Path:
     return path
 
 
-def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *,
-                     H_max: float | None = None, points: Sequence[tuple[str, np.ndarray,
-                     np.ndarray, np.ndarray | None]] = (), title: str = "") -> Path:
-    """p(H) of several solutions as lines (and optional points with error bars).
+def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path | None = None,
+                     *, H_max: float | None = None, points: Sequence[tuple[str, np.ndarray,
+                     np.ndarray, np.ndarray | None]] = (), title: str = "", ax=None):
+    """p(H) of several solutions as lines (and optional points with ±1 SE bars).
 
     Parameters
     ----------
     curves : sequence of (label, Solution)
-    path : output file (PNG)
-    H_max : upper end of the H axis (default: where the widest density falls to 1e-3 of its peak)
+    path : str or Path, optional
+        Output file (PNG); returned when given (and ``ax`` is not).
+    H_max : float, optional
+        Upper end of the H axis (default: where the widest density falls to 1e-3 of
+        its peak).
     points : sequence of (label, H, p, p_se or None), e.g. Monte Carlo histograms
+    ax : matplotlib.axes.Axes, optional
+        Draw here (a notebook's axes) and return it.
+
+    Returns
+    -------
+    Path or matplotlib.axes.Axes
+        The file written, or the axes drawn into.
     """
-    plt = _pyplot()
     if H_max is None:
         H_max = 0.0
         for _, sol in curves:
@@ -64,7 +73,9 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *
             p = sol.pdf_energy(H)
             H_max = max(H_max, float(H[np.nonzero(p > 1e-3 * p.max())[0][-1]]))
     H = np.linspace(0.0, H_max, 1200)[1:]
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    given = ax is not None
+    if not given:
+        fig, ax = _Figures.subplots(figsize=(6.4, 4.4), dpi=120)
     for label, sol in curves:
         ax.plot(H, sol.pdf_energy(H), lw=1.6, label=label)
     for label, Hp, pp, se in points:
@@ -74,12 +85,14 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path, *
         ax.axvline(g, color="0.6", ls=":", lw=1)
         ax.text(g, ax.get_ylim()[1] * 0.97, " " + label, va="top", fontsize=8, color="0.4")
     ax.set_xlim(0, H_max)
-    ax.set_xlabel(r"energy $H = y^2/2 + G(x)$")
-    ax.set_ylabel(r"probability density $p(H)$")
+    ax.set_xlabel(r"energy $H = y^2/2 + G(x)$ (J/kg)")
+    ax.set_ylabel(r"probability density $p(H)$ (kg/J)")
     if title:
         ax.set_title(title, fontsize=10)
     ax.legend(frameon=False, fontsize=9)
-    return _save(fig, path)
+    if given or path is None:
+        return ax
+    return _save(ax.figure, path)
 
 
 def _wall_energies(system) -> list[tuple[float, str]]:
@@ -311,7 +324,7 @@ def reliability(passages: dict, path, *, title: str = "") -> Path:
 
 
 def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") -> Path:
-    """A moment against time for each method (Monte Carlo with ±2 SE bars).
+    """A moment against time for each method (Monte Carlo with ±1 SE bars).
 
     ``entries``: method → {"times": [...], "at": [{"moments": {...}, "moments_se": {...}}]}
     as written in results.json.
@@ -323,8 +336,8 @@ def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") ->
         v = np.array([a["moments"][key] for a in e["at"]])
         if method == "montecarlo":
             se = np.array([a["moments_se"][key] for a in e["at"]])
-            ax.errorbar(t, v, yerr=2 * se, fmt="o", ms=4, mfc="none", color="C2", capsize=2,
-                        label="Monte Carlo (±2 SE)")
+            ax.errorbar(t, v, yerr=se, fmt="o", ms=4, mfc="none", color="C2", capsize=2,
+                        label="Monte Carlo (±1 SE)")
         else:
             ax.plot(t, v, marker=".", label=method, **_STYLE.get(method, {}))
     ax.set_xscale("symlog", linthresh=1.0)
@@ -370,40 +383,42 @@ def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str
 
 
 def sweep_moments(points: list, path, *, keys=("E_H", "E_x2", "E_y2"), title: str = "") -> Path:
-    """Moments against the swept parameter, one line per method (Monte Carlo ±1 SE);
-    a two-parameter sweep gets one line per value of the second parameter."""
+    """Moments against the (first) swept parameter, one line per method (Monte Carlo
+    ±1 SE); a two-parameter sweep is faceted: one row of panels per value of the
+    second parameter."""
     done = [p for p in points if p.get("status") == "done"]
     params = list(done[0]["parameters"]) if done else []
     if not params:
         raise ValueError("sweep_moments: the run has no swept parameter")
     first, second = params[0], (params[1] if len(params) > 1 else None)
     methods = list(done[0]["methods"])
-    fig, axes = _Figures.subplots(1, len(keys), figsize=(4.6 * len(keys), 3.8), dpi=110,
-                                  squeeze=False)
     groups = sorted({p["parameters"][second] for p in done}) if second else [None]
-    for ax, key in zip(axes[0], keys):
-        for mi, method in enumerate(methods):
-            for gi, gval in enumerate(groups):
-                sel = [p for p in done if second is None or p["parameters"][second] == gval]
-                sel.sort(key=lambda p: p["parameters"][first])
-                xs = np.array([p["parameters"][first] for p in sel])
+    fig, axes = _Figures.subplots(len(groups), len(keys), figsize=(4.6 * len(keys),
+                                  3.4 * len(groups)), dpi=110, squeeze=False)
+    for row, gval in zip(axes, groups):
+        sel = sorted((p for p in done if second is None or p["parameters"][second] == gval),
+                     key=lambda p: p["parameters"][first])
+        xs = np.array([p["parameters"][first] for p in sel])
+        for ax, key in zip(row, keys):
+            for mi, method in enumerate(methods):
                 rec = [p["methods"][method] for p in sel if method in p["methods"]]
                 if len(rec) != len(sel):
                     continue
                 ys = np.array([r["moments"].get(key, np.nan) for r in rec])
-                label = METHOD_NAMES.get(method, method) + (f", {second} = {gval:g}" if second else "")
-                style = dict(_STYLE.get(method, {}))
-                style.setdefault("color", f"C{mi}")
-                style["alpha"] = 1.0 - 0.6 * gi / max(1, len(groups) - 1) if second else 1.0
+                name = METHOD_NAMES.get(method, method)
                 if method == "montecarlo":
                     se = np.array([r.get("moments_se", {}).get(key, np.nan) for r in rec])
                     ax.errorbar(xs, ys, yerr=se, fmt="o", ms=3, mfc="none", capsize=2, lw=0.8,
-                                color="C2", alpha=style["alpha"], label=label + " (±1 SE)")
+                                color="C2", label=name + " (±1 SE)")
                 else:
-                    ax.plot(xs, ys, marker=".", label=label, **style)
-        ax.set_xlabel(first)
-        ax.set_ylabel({"E_H": r"$E[H]$ (J/kg)", "E_x2": r"$E[x^2]$ (m²)",
-                       "E_y2": r"$E[y^2]$ (m²/s²)"}.get(key, key))
+                    style = dict(_STYLE.get(method, {}))
+                    style.setdefault("color", f"C{mi}")
+                    ax.plot(xs, ys, marker=".", label=name, **style)
+            ax.set_xlabel(first)
+            ax.set_ylabel({"E_H": r"$E[H]$ (J/kg)", "E_x2": r"$E[x^2]$ (m²)",
+                           "E_y2": r"$E[y^2]$ (m²/s²)"}.get(key, key))
+            if second is not None:
+                ax.set_title(f"{second} = {gval:g}", fontsize=8)
     axes[0][0].legend(frameon=False, fontsize=7)
     fig.suptitle(title, fontsize=9)
     return _save(fig, path)
