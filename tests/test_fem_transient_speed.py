@@ -9,7 +9,8 @@ import pytest
 
 from fpk_vibro import VibroImpactSystem
 from fpk_vibro.fem.benchmark_transient import PACKET, TIMES, relative_errors
-from fpk_vibro.fem.transient import discretise, exponential, transient
+from fpk_vibro.fem.exponential import exponential
+from fpk_vibro.fem.transient import discretise, transient
 
 SMOOTH = {"mean": (0.1, 0.3), "std": (0.15, 0.3)}
 

@@ -41,7 +41,8 @@ def relative_errors(sols, times=TIMES) -> np.ndarray:
 
 
 def _variants(quick: bool) -> dict[str, Callable]:
-    from .transient import exponential, transient
+    from .exponential import exponential
+    from .transient import transient
     system = VibroImpactSystem.paper(r=0.92)
     nx = 24 if quick else None
 
