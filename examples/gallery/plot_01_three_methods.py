@@ -5,7 +5,7 @@ Three methods at r = 0.92 (the paper's Figs. 3–5)
 The paper's case (Yang, Xu, Gu, Huang 2016): a = 1, b = 0.2, c = 0.025,
 D1 = D2 = 0.01, walls at ±Δ = ±0.6 with restitution r = 0.92.  The energy density
 p(H) from stochastic averaging (closed form), finite elements for the 2-D FPK
-equation (Q2) and Monte Carlo simulation (histogram with ±2 standard errors).
+equation (Q2) and Monte Carlo simulation (histogram with ±1 standard error).
 
 Above the barrier energy G(Δ) the orbits hit the walls: p(H) has a kink there.
 Averaging replaces the impacts by an energy loss per quasi-period, which is good
@@ -35,8 +35,8 @@ G_delta = system.barrier_energy
 
 fig, (ax, ax_ratio) = plt.subplots(2, 1, figsize=(6.4, 5.6), sharex=True,
                                    height_ratios=(3, 1.3))
-ax.errorbar(centres, density, yerr=2 * se, fmt=".", color="0.5", ms=3,
-            label="Monte Carlo (±2 SE)")
+ax.errorbar(centres, density, yerr=se, fmt=".", color="0.5", ms=3,
+            label="Monte Carlo (±1 SE)")
 ax.plot(H, avg.pdf_energy(H), label="averaging")
 ax.plot(H, fe.pdf_energy(H), "--", label="finite elements (Q2)")
 ax.axvline(G_delta, color="k", lw=0.6, ls=":")
@@ -46,7 +46,7 @@ ax.legend()
 
 # the differences are small on this scale: each density relative to FE
 p_fe = fe.pdf_energy(centres)
-ax_ratio.errorbar(centres, density / p_fe - 1, yerr=2 * se / p_fe, fmt=".",
+ax_ratio.errorbar(centres, density / p_fe - 1, yerr=se / p_fe, fmt=".",
                   color="0.5", ms=3)
 ax_ratio.plot(H, avg.pdf_energy(H) / fe.pdf_energy(H) - 1)
 ax_ratio.axhline(0.0, color="k", lw=0.6)

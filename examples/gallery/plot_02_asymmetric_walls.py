@@ -21,7 +21,7 @@ fe = fem.stationary(system, degree=2, nx=32)
 mc = montecarlo.stationary(system, seed=2, target_rse=3e-3, progress=False)
 
 # %%
-# p(x): FE against the Monte Carlo histogram (±2 standard errors)
+# p(x): FE against the Monte Carlo histogram (±1 standard error)
 # ----------------------------------------------------------------
 
 edges, density, se = mc.histogram("x")
@@ -29,8 +29,8 @@ centres = 0.5 * (edges[1:] + edges[:-1])
 x = np.linspace(-0.4, 0.8, 400)
 
 fig, ax = plt.subplots(figsize=(6.4, 4.0))
-ax.errorbar(centres, density, yerr=2 * se, fmt=".", color="0.5", ms=3,
-            label="Monte Carlo (±2 SE)")
+ax.errorbar(centres, density, yerr=se, fmt=".", color="0.5", ms=3,
+            label="Monte Carlo (±1 SE)")
 ax.plot(x, fe.pdf_x(x), label="finite elements (Q2)")
 for wall in (system.left, system.right):
     ax.axvline(wall.position, color="k", lw=0.8)
