@@ -154,8 +154,9 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         Adaptive steps (BDF2 only): the local error of each step, estimated by
         Milne's device against the quadratic extrapolation of the last three
         states, is kept below ``tol`` in L1 (∫|Δp|); ``dt`` is then the first and
-        largest step.  Step sizes are rounded to a ladder 2^(k/4)·dt so that LU
-        factors are reused.  None (default): fixed steps of at most ``dt``.
+        largest step.  Every step matrix is a rung M − g L of a ladder
+        g ∝ 2^(−k/2) and the step length follows from it, so LU factors are reused
+        (:func:`_march_adaptive`).  None (default): fixed steps of at most ``dt``.
     progress : bool, optional
         A progress bar (:mod:`fpk_vibro.progress`; default: on a terminal or in a
         Jupyter notebook, after 2 s; False: never).
