@@ -156,7 +156,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         states, is kept below ``tol`` in L1 (∫|Δp|); ``dt`` is then the first and
         largest step.  Every step matrix is a rung M − g L of a ladder
         g ∝ 2^(−k/2) and the step length follows from it, so LU factors are reused
-        (:func:`_march_adaptive`).  None (default): fixed steps of at most ``dt``.
+        (``_march_adaptive``).  None (default): fixed steps of at most ``dt``.
     progress : bool, optional
         A progress bar (:mod:`fpk_vibro.progress`; default: on a terminal or in a
         Jupyter notebook, after 2 s; False: never).
