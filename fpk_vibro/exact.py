@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy import integrate, special
 
-from ._checks import InputError, invalid
+from ._checks import InputError
 from .model import VibroImpactSystem, check_system
 from .orbits import energy_floor, orbit_nodes, require_single_well
 from .scales import potential_min
@@ -163,9 +163,7 @@ class GibbsSolution(Solution):
 
     def impact_speed_pdf(self, wall: str, u):
         """The Rayleigh density (u/σ²) exp(−u²/2σ²), u ≥ 0, on either wall."""
-        if wall not in ("left", "right") or getattr(self.system, wall) is None:
-            raise invalid("impact_speed_pdf", "wall", "one of the system's walls "
-                          f"{[s for s, _ in self.system.walls]}", wall)
+        self.wall_named(wall)
         u = np.asarray(u, dtype=float)
         s2 = self.system.D1 / self.system.c
         return np.where(u >= 0, u / s2 * np.exp(-u * u / (2 * s2)), 0.0)

@@ -85,6 +85,15 @@ class Solution(abc.ABC):
         impacts remove per unit time); Monte Carlo adds ``*_se`` standard errors."""
         raise NotImplementedError(f"{type(self).__name__} gives no impact statistics")
 
+    def wall_named(self, wall: Any):
+        """The system's :class:`~fpk_vibro.model.Wall` called ``wall`` ("left"/"right");
+        a one-line error naming the walls there are otherwise."""
+        sides = [side for side, _ in self.system.walls]
+        if not isinstance(wall, str) or wall not in sides:
+            raise invalid("impact_speed_pdf", "wall", f"one of the system's walls {sides}",
+                          wall)
+        return getattr(self.system, wall)
+
     def impact_speed_pdf(self, wall: str, u: np.ndarray) -> np.ndarray:
         """Density of the speed u ≥ 0 just before an impact on ``wall``."""
         raise NotImplementedError(f"{type(self).__name__} gives no impact-speed density")

@@ -64,11 +64,7 @@ def impact_statistics(sol) -> dict[str, dict[str, float]]:
 
 def impact_speed_pdf(sol, wall: str, u) -> np.ndarray:
     """f_w(u), the density of the speed just before an impact on ``wall``."""
-    w = getattr(sol.system, wall, None) if wall in ("left", "right") else None
-    if w is None:
-        from .._checks import invalid
-        raise invalid("impact_speed_pdf", "wall", "one of the system's walls "
-                      f"{[s for s, _ in sol.system.walls]}", wall)
+    w = sol.wall_named(wall)
     u = np.asarray(u, dtype=float)
     nu = impact_statistics(sol)[wall]["rate"]
     Gw = float(sol.system.potential(w.position))

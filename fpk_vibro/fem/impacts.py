@@ -15,8 +15,9 @@ impact at wall w changes H by −½ (1 − r_w²) u².  In a stationary state E[
 
     D1 + D2 E[x²]  =  c E[y²]  +  Σ_w P_w          (noise in = damping + impacts).
 
-Its relative residual is a check on the discrete density that no single moment gives:
-it ties the interior (E[x²], E[y²]) to the trace on the walls.
+Its relative residual (:meth:`fpk_vibro.Solution.power_balance`, from the statistics
+here) is a check on the discrete density that no single moment gives: it ties the
+interior (E[x²], E[y²]) to the trace on the walls.
 
 The integrals run on the breakpoints of the trace (the mesh nodes on the wall) with a
 Gauss rule exact for the polynomial trace times u³.
@@ -28,7 +29,7 @@ from typing import Any
 import numpy as np
 import skfem
 
-__all__ = ["impact_statistics", "impact_speed_pdf", "power_balance"]
+__all__ = ["impact_statistics", "impact_speed_pdf"]
 
 
 def _wall_trace(sol, side: str) -> tuple[float, np.ndarray, np.ndarray]:
@@ -75,24 +76,10 @@ def impact_statistics(sol) -> dict[str, dict[str, float]]:
 
 def impact_speed_pdf(sol, wall: str, u: Any) -> np.ndarray:
     """f_w(u) = u p(x_w, ±u) / ν_w, the density of the speed just before impact."""
-    if wall not in ("left", "right") or getattr(sol.system, wall) is None:
-        from .._checks import invalid
-        raise invalid("impact_speed_pdf", "wall", "one of the system's walls "
-                      f"{[s for s, _ in sol.system.walls]}", wall)
+    sol.wall_named(wall)
     u = np.asarray(u, dtype=float)
     rate = impact_statistics(sol)[wall]["rate"]
     flat = np.abs(u.ravel())
     f = flat * _trace(sol, wall, flat) / rate
     return np.where(u.ravel() >= 0, f, 0.0).reshape(u.shape)
 
-
-def power_balance(sol, impacts: dict[str, dict[str, float]] | None = None
-                  ) -> dict[str, float]:
-    """Noise power in, damping and impact losses, and the relative residual."""
-    s, m = sol.system, sol.moments()
-    impacts = impact_statistics(sol) if impacts is None else impacts
-    power_in = s.D1 + s.D2 * m["E_x2"]
-    damping = s.c * m["E_y2"]
-    impact = sum(v["energy_rate"] for v in impacts.values())
-    return {"noise": power_in, "damping": damping, "impacts": impact,
-            "residual": (power_in - damping - impact) / power_in}

@@ -338,12 +338,6 @@ class FEMSolution(Solution):
         from .impacts import impact_speed_pdf
         return impact_speed_pdf(self, wall, u)
 
-    def power_balance(self) -> dict[str, float]:
-        """Noise power in, damping and impact losses per unit time and the relative
-        residual of their balance (:mod:`fpk_vibro.fem.impacts`)."""
-        from .impacts import power_balance
-        return power_balance(self)
-
     def energy_split(self, level: float, *, positive: bool = False) -> tuple[float, float]:
         """(∫ over {H > level}, ∫ over {H ≤ level}) of p_h on the mesh.
 

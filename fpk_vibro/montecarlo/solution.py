@@ -146,11 +146,7 @@ class MonteCarloSolution(Solution):
 
     # -- impact speeds -------------------------------------------------------------
     def _wall(self, wall: Any) -> str:
-        from .._checks import invalid
-        sides = [side for side, _ in self.system.walls]
-        if not isinstance(wall, str) or wall not in sides:
-            raise invalid("impact_speed_pdf", "wall", f"one of the system's walls {sides}",
-                          wall)
+        self.wall_named(wall)
         self._need("impacts")
         return wall
 
