@@ -43,9 +43,14 @@ def _wall_extent(system: VibroImpactSystem) -> float:
     return d if d > 0 else 1.0
 
 
-def _largest_r(system: VibroImpactSystem) -> float:
-    """The restitution of the least dissipative wall (r for walls at ±Δ)."""
-    return max((w.r for _, w in system.walls), default=1.0)
+def _impact_loss(system: VibroImpactSystem) -> float:
+    """Mean over the walls of 1 − r², the share of the kinetic energy an impact
+    removes (1 − r² for walls at ±Δ or one wall; 0 without walls).  The mean, not
+    the least dissipative wall: with c = 0 one inelastic wall beside an elastic one
+    is enough for a stationary state (the model refuses c = 0 only when no wall
+    loses energy), and its loss is halved, not lost, by the elastic one."""
+    walls = [w for _, w in system.walls]
+    return sum(1.0 - w.r * w.r for w in walls) / len(walls) if walls else 0.0
 
 
 def _omega_lin(system: VibroImpactSystem) -> float:
@@ -57,10 +62,11 @@ def _omega_lin(system: VibroImpactSystem) -> float:
 
 
 def _rate0(system: VibroImpactSystem) -> float:
-    """c, or with c = 0 (inelastic barrier required) (1 − r²) ω_lin/2π."""
+    """c, or with c = 0 (an inelastic wall required) (1 − r²) ω_lin/2π, 1 − r² the
+    mean over the walls (:func:`_impact_loss`)."""
     if system.c > 0:
         return system.c
-    return (1.0 - _largest_r(system) ** 2) * _omega_lin(system) / (2.0 * math.pi)
+    return _impact_loss(system) * _omega_lin(system) / (2.0 * math.pi)
 
 
 def energy_scale(system: VibroImpactSystem) -> float:
@@ -100,12 +106,12 @@ def relaxation_rate(system: VibroImpactSystem) -> float:
     c when c > 0: paths below the barrier energy G(Δ) lose energy only through
     damping, so they set the slowest time scale.  With c = 0 (allowed only with an
     inelastic barrier) the impact loss rate (1 − r²)/T0: one impact per period
-    removes the fraction 1 − r² of the kinetic energy at impact (r of the least
-    dissipative wall).
+    removes the fraction 1 − r² of the kinetic energy at impact (the mean over the
+    walls, :func:`_impact_loss`).
     """
     if system.c > 0:
         return system.c
-    return (1.0 - _largest_r(system) ** 2) / period(system)
+    return _impact_loss(system) / period(system)
 
 
 def relaxation_time(system: VibroImpactSystem) -> float:
@@ -136,6 +142,8 @@ def reach(system: VibroImpactSystem, H: np.ndarray) -> np.ndarray:
         disc = system.a ** 2 + 4.0 * system.b * np.asarray(H, dtype=float)
         with np.errstate(invalid="ignore"):
             A = np.sqrt(np.maximum(-system.a + np.sqrt(np.maximum(disc, 0.0)), 0.0) / system.b)
+    if system.b < 0:      # softening: beyond its hump G falls again, down to the wall
+        A = np.where(np.asarray(H, dtype=float) >= system.potential(wall), wall, A)
     return np.where(np.isfinite(A), np.minimum(A, wall), wall)
 
 
