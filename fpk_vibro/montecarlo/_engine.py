@@ -123,6 +123,23 @@ def _reduce(system: VibroImpactSystem, hist: S.Histograms, mom: np.ndarray,
     return MonteCarloSolution(system, meta, arrays)
 
 
+def _check_finite(mode: str, mom: np.ndarray, xs: np.ndarray, ys: np.ndarray, dt: float,
+                  sample_every: int) -> None:
+    """Raise, naming the cause, where a moment would be NaN: no sample, or a path
+    whose state is no longer finite."""
+    where = f"montecarlo.{mode}"
+    if mom[:, K.M_N].sum() == 0:
+        raise RuntimeError(f"{where}: no sample was taken (the sampled time is shorter than "
+                           f"one sampling interval sample_every*dt = {sample_every * dt:.3g}"
+                           " s): give a longer t_sample or a smaller sample_every")
+    bad = ~(np.isfinite(xs) & np.isfinite(ys))
+    if bad.any() or not np.all(np.isfinite(mom)):
+        raise FloatingPointError(
+            f"{where}: {int(bad.sum())} of {xs.size} paths left every bound (a non-finite "
+            f"state) at dt = {dt:.3g} s: the step is too coarse for this system's fastest "
+            "time scale (give a smaller dt)")
+
+
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
                 hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
                 frac=None, threads=None, walls=None):
@@ -300,6 +317,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     if partial and mom[:, K.M_N].sum() == 0:
         raise KeyboardInterrupt("montecarlo.stationary interrupted before any sample")
     prog.close()
+    _check_finite("stationary", mom, xs, ys, dt, sample_every)
     t_done = float(imp[:, 1].sum() / n_paths * dt)
     meta = dict(n_paths=n_paths, n_batches=n_batches, t_burn=float(n_burn * dt),
                 t_sample=t_done, time=None, seed_entropy=ss.entropy, partial=partial,
@@ -384,6 +402,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             hist = S.Histograms(system, quantities, bins, n_batches, H_max)
             hist.fill_params(p)
             K.snapshot(xs, ys, starts, p, mom, xext, hist.hH, hist.hx, hist.hy, hist.hj)
+            _check_finite("transient", mom, xs, ys, h, 0)
             meta = dict(n_paths=n_paths, n_batches=n_batches, t_burn=0.0, t_sample=0.0,
                         time=t_now, seed_entropy=ss.entropy, partial=False,
                         sample_every=0, quantities=list(quantities), mode=system.barriers,
