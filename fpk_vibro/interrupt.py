@@ -51,7 +51,34 @@ def signals_handled() -> Iterator[None]:
             signal.signal(s, h)
 
 
-def worker_init() -> None:
-    """For worker processes: the parent decides; SIGINT ignored, SIGTERM ends at once."""
+def worker_init(parent: int | None = None) -> None:
+    """For worker processes: the parent decides; SIGINT ignored, SIGTERM ends at once.
+
+    With ``parent`` (its pid) the worker also dies with it: ``PR_SET_PDEATHSIG``
+    (SIGKILL) on Linux, and a thread that checks the parent pid every second
+    elsewhere (or if the parent died before the call).
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    if parent is None:
+        return
+    import os
+    import sys
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)          # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:          # it died before prctl
+        os._exit(1)
+
+    def watch() -> None:
+        import time
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="fpk-vibro-parent-watch", daemon=True).start()

@@ -4,6 +4,11 @@ A run holds an exclusive lock on ``DIR/.fpk-vibro.lock`` (``fcntl.flock``) from
 its first write to its last: a second run into the same directory is refused
 with one line, so two runs never mix their data.  The lock dies with its
 process (also under ``kill -9``), so a stale lock file never blocks a later run.
+Only the run holds it: the descriptor is close-on-exec (worker processes are
+fresh interpreters, :mod:`fpk_vibro.pool`) and a process forked during the run
+closes its copy at once (``os.register_at_fork``), since an ``flock`` lives as
+long as any process has the open file, and an orphan would keep the directory
+"in use" after the run died.
 The directory must be a directory and writable; the check happens before any
 point is computed.
 
@@ -15,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +36,25 @@ def safe_name(name: str) -> str:
     """``name`` as one path component: letters, digits, '.', '_', '-' (no leading dot)."""
     out = re.sub(r"[^A-Za-z0-9._-]+", "_", name).lstrip("._")
     return out[:100] or "scene"
+
+
+_HELD: "weakref.WeakSet[OutputDir]" = weakref.WeakSet()
+
+
+def _drop_in_child() -> None:
+    """In a forked child: close the copies of every held lock (the parent keeps them)."""
+    for held in list(_HELD):
+        if held._fd is not None:
+            try:
+                os.close(held._fd)
+            except OSError:
+                pass
+            held._fd = None
+    _HELD.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_drop_in_child)
 
 
 class OutputDir:
@@ -50,7 +75,7 @@ class OutputDir:
                              name=self.key)
         try:
             p.mkdir(parents=True, exist_ok=True)
-            fd = os.open(p / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = os.open(p / LOCK_NAME, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
         except OSError as exc:
             raise InputError(f"{self.key}: cannot write to {str(p)!r} "
                              f"({exc.strerror or exc})", name=self.key) from None
@@ -63,6 +88,7 @@ class OutputDir:
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()} {self.token}\n".encode())
         self._fd = fd
+        _HELD.add(self)
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -73,6 +99,7 @@ class OutputDir:
                 pass
             os.close(self._fd)          # releases the lock
             self._fd = None
+            _HELD.discard(self)
 
 
 def holds(path: Path, token: str) -> bool:

@@ -12,6 +12,7 @@ Layout of an output directory::
 """
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import shutil
@@ -23,7 +24,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ._checks import InputError
-from .interrupt import Interrupted, received, signals_handled, worker_init
+from .interrupt import Interrupted, received, signals_handled
 from .io import atomic_json, atomic_savez
 from .outdir import OutputDir, finished_points, holds, point_records
 from .model import VibroImpactSystem
@@ -236,7 +237,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
     points = scene.points()
     warn = warn or log
     with OutputDir(out_dir, "--out" if out is not None else "output.directory") as lock, \
-            signals_handled():
+            signals_handled(), _dask(scheduler) as client:
         if resume:
             records = finished_points(out_dir, scene.source)
         else:                          # a fresh run: no earlier run's points can mix in
@@ -246,7 +247,10 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
         if records:
             log(f"  resuming: {len(records)} of {len(points)} point(s) already finished")
         serial = scheduler is None and (len(points) - len(records) <= 1 or workers == 1)
-        jobs = [(scene, i, params, system, out_dir, progress if serial else False, lock.token)
+        # the output directory as an absolute path: a worker (a Dask one in particular)
+        # has its own working directory
+        job_dir = Path(os.path.abspath(out_dir))
+        jobs = [(scene, i, params, system, job_dir, progress if serial else False, lock.token)
                 for i, (params, system) in enumerate(points) if i not in records]
         t0 = time.perf_counter()
         signum = None
@@ -254,11 +258,26 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
                              total=len(points), unit="point")
         sweep_bar.update(len(records))
         try:
-            for rec in _execute(jobs, serial, workers, scheduler):
+            for rec in _execute(jobs, serial, workers, client):
                 records[rec["index"]] = _report(rec, len(points), log, warn)
                 sweep_bar.update(len(records))
         except Interrupted as exc:
             signum = exc.signum
+        except OSError as exc:        # a full disk: stop, keep what finished
+            if not storage_fault(exc):
+                raise
+            fault = exc
+        except SchedulerLost as exc:  # keep what finished; the rest fails (--resume redoes it)
+            on_disk = point_records(out_dir)
+            lost = [j for j in jobs if j[1] not in records]
+            for j in lost:
+                r = on_disk.get(j[1])
+                records[j[1]] = r if r and r.get("status") in ("done", "failed") else {
+                    "index": j[1], "parameters": j[2], "status": "failed",
+                    "error": f"not computed: {exc}"}
+            n_lost = sum(records[j[1]].get("status") == "failed" for j in lost)
+            warn(f"fpk-vibro: {exc}: {n_lost} point(s) not computed, marked failed in "
+                 "results.json; run again with --resume to compute them")
         finally:
             sweep_bar.close()
         signum = signum or received()
@@ -270,36 +289,90 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
     return doc
 
 
-def _execute(jobs: list, serial: bool, workers: int | None, scheduler: str | None):
-    """Yield each job's record as it finishes, in this process, a pool or on Dask."""
+class SchedulerLost(RuntimeError):
+    """The Dask scheduler went away during the sweep."""
+
+
+@contextlib.contextmanager
+def _dask(address: str | None):
+    """A Dask client of ``address`` (None: no client), connected with every step
+    bounded (:func:`fpk_vibro.scheduler.client`), closed at the end."""
+    if address is None:
+        yield None
+        return
+    from .scheduler import client as connect, quiet
+    client = connect(address)
+    client.fpk_address = address
+    try:
+        with quiet():
+            yield client
+    finally:
+        with quiet():
+            try:
+                client.close(timeout=5)
+            except Exception:          # a lost scheduler: nothing to close
+                pass
+
+
+def _died(job: tuple, reason: str) -> dict[str, Any]:
+    """The record of a point whose worker died: what it wrote, or a failure that is
+    not written to ``points/`` (so that ``--resume`` computes it again)."""
+    index, params, out_dir = job[1], job[2], job[4]
+    rec = point_records(out_dir).get(index)
+    if rec is not None and rec.get("status") in ("done", "failed"):
+        return rec
+    return {"index": index, "parameters": params, "status": "failed",
+            "error": f"{reason}; --resume computes it again"}
+
+
+def _execute(jobs: list, serial: bool, workers: int | None, client: Any = None):
+    """Yield each job's record as it finishes, in this process, in worker processes
+    (:mod:`fpk_vibro.pool`) or on Dask (``client``)."""
     if not jobs:
         return
-    if scheduler is not None:
-        from dask.distributed import Client, as_completed as dask_completed
-        with Client(scheduler) as client:
-            futures = client.map(_point_job, jobs, pure=False)
-            try:
-                for fut in dask_completed(futures):
-                    yield fut.result()
-            except BaseException:
-                client.cancel(futures, force=True)
-                raise
+    if client is not None:
+        yield from _on_dask(client, jobs)
         return
     if serial:
         for job in jobs:
             yield _point_job(job)
         return
-    import multiprocessing
-    n = workers or min(len(jobs), os.cpu_count() or 1)
-    pool = multiprocessing.get_context().Pool(n, initializer=worker_init)
+    from .pool import run_jobs
+    yield from run_jobs(_point_job, jobs, workers or os.cpu_count() or 1, _died)
+
+
+def _on_dask(client: Any, jobs: list):
+    """The jobs on Dask: a task that fails fails its point; a lost scheduler raises
+    :class:`SchedulerLost` after every point reported so far."""
+    from distributed import as_completed
+    address = getattr(client, "fpk_address", "")
+    futures = client.map(_point_job, jobs, pure=False)
+    job_of = {f.key: job for f, job in zip(futures, jobs)}
+    lost = False
     try:
-        yield from pool.imap_unordered(_point_job, jobs)
-        pool.close()
+        for fut in as_completed(futures, loop=client.loop):
+            try:
+                rec = fut.result()
+            except (KeyboardInterrupt, GeneratorExit, SystemExit):
+                raise
+            except BaseException as exc:   # CancelledError is one (not an Exception)
+                if "connection-lost" in str(getattr(exc, "reason", "")) or \
+                        client.status not in ("running", "newly-created"):
+                    lost = True
+                    raise SchedulerLost(f"the Dask scheduler {address} was lost "
+                                        "mid-sweep") from None
+                job = job_of[fut.key]
+                rec = {"index": job[1], "parameters": job[2], "status": "failed",
+                       "error": "on Dask: " + " ".join(
+                           f"{type(exc).__name__}: {exc}".split())[:500]}
+            yield rec
     except BaseException:
-        pool.terminate()              # SIGTERM to every worker: they end at once
+        if not lost:
+            try:
+                client.cancel(futures, force=True)
+            except Exception:
+                pass
         raise
-    finally:
-        pool.join()
 
 
 def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]],
