@@ -268,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         print("fpk-vibro: interrupted", file=sys.stderr)
         return 128 + int(getattr(exc, "signum", signal.SIGINT))
     except OSError as exc:
-        where = f" {exc.filename!r}" if getattr(exc, "filename", None) else ""
+        where = f" {exc.filename!r}:" if getattr(exc, "filename", None) else ""
         print(f"fpk-vibro: error:{where} {exc.strerror or exc}", file=sys.stderr)
         return 2
     except ValueError as exc:

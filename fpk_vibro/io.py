@@ -7,6 +7,7 @@ umask (0644 under umask 022), like any file the user writes.  JSON is strict
 """
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -48,21 +49,41 @@ def _sync_dir(path: Path) -> None:
         os.close(fd)
 
 
+def _named(exc: OSError, path: Path) -> OSError:
+    """``exc`` naming ``path``, the file the caller asked for, where it named none or
+    a temporary file of ``path`` (``.NAME.*.tmp``); any other file it names stays."""
+    name = exc.filename
+    if isinstance(name, (str, os.PathLike)) and not Path(name).name.startswith(
+            f".{path.name}.") and not Path(name).parent.name.startswith(f".{path.name}."):
+        return exc
+    code = exc.errno
+    if code is None and "No space left on device" in str(exc):   # h5py's wording
+        code = errno.ENOSPC
+    reason = exc.strerror or (os.strerror(code) if code else str(exc))
+    return OSError(code, reason, str(path))
+
+
 def atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
-    """Call ``write(fh)`` on a temporary file beside ``path`` and rename it to ``path``."""
+    """Call ``write(fh)`` on a temporary file beside ``path`` and rename it to ``path``.
+
+    An :class:`OSError` (a full disk, say) names ``path``, never the temporary file.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    tmp = None
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(fd, "wb") as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, file_mode())
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+    except BaseException as exc:
+        if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _named(exc, path) from None
         raise
     _sync_dir(path.parent)
     return path
@@ -73,9 +94,10 @@ def atomic_files(path: str | os.PathLike, write: Callable[[Path], None]) -> Path
     temporary directory beside ``path``; each is then renamed into place, ``path``
     last, so that a reader never sees ``path`` without its companions."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmpdir = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
+    tmpdir = None
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmpdir = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
         write(tmpdir / path.name)
         produced = sorted(tmpdir.iterdir(), key=lambda p: p.name == path.name)
         for p in produced:
@@ -83,8 +105,11 @@ def atomic_files(path: str | os.PathLike, write: Callable[[Path], None]) -> Path
                 os.fsync(fh.fileno())
             os.chmod(p, file_mode())
             os.replace(p, path.parent / p.name)
+    except OSError as exc:
+        raise _named(exc, path) from None
     finally:
-        shutil.rmtree(tmpdir, ignore_errors=True)
+        if tmpdir is not None:
+            shutil.rmtree(tmpdir, ignore_errors=True)
     _sync_dir(path.parent)
     return path
 

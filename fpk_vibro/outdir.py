@@ -111,21 +111,24 @@ def holds(path: Path, token: str) -> bool:
 
 
 def point_records(path: Path) -> dict[int, dict[str, Any]]:
-    """{index: record} of every readable ``points/p{i}.json`` in ``path``."""
+    """{index: record} of every readable ``points/p{i}.json`` in ``path`` whose
+    ``index`` is the ``i`` of its file name (a record is trusted by its file)."""
     out = {}
     for f in sorted((path / "points").glob("p*.json")):
         try:
             rec = json.loads(f.read_text(encoding="utf-8"))
         except (OSError, ValueError):
             continue                      # a damaged record is computed again
-        if isinstance(rec, dict) and isinstance(rec.get("index"), int):
+        if isinstance(rec, dict) and isinstance(rec.get("index"), int) \
+                and f.name == f"p{rec['index']}.json":
             out[rec["index"]] = rec
     return out
 
 
 def finished_points(path: Path, source: dict[str, Any]) -> dict[int, dict[str, Any]]:
     """{index: record} of the points an earlier run of the scene ``source`` finished
-    or failed in ``path`` (interrupted and missing points are left out).
+    in ``path`` (failed, interrupted and missing points are left out: they are
+    computed again).  :func:`fpk_vibro.resume.select` adds the fingerprint checks.
 
     Raises :class:`InputError` if ``path`` holds the results of another scene.
     """
@@ -140,5 +143,4 @@ def finished_points(path: Path, source: dict[str, Any]) -> dict[int, dict[str, A
             raise InputError(f"--resume: {str(results)!r} holds the results of another scene "
                              "(or is unreadable); choose another output directory",
                              name="--resume")
-    return {i: r for i, r in point_records(path).items()
-            if r.get("status") in ("done", "failed")}
+    return {i: r for i, r in point_records(path).items() if r.get("status") == "done"}

@@ -15,7 +15,6 @@ from __future__ import annotations
 import contextlib
 import importlib
 import os
-import shutil
 import signal
 import time
 from pathlib import Path
@@ -26,10 +25,11 @@ import numpy as np
 from ._checks import InputError
 from .interrupt import Interrupted, received, signals_handled
 from .io import atomic_json, atomic_savez
-from .outdir import OutputDir, finished_points, holds, point_records
+from .outdir import OutputDir, holds, point_records
 from .model import VibroImpactSystem
 from .plan import resolved_options, solver_kwargs
 from .progress import Progress
+from .resume import clear_outputs, clear_temporaries, fingerprint, select, storage_fault
 from .scales import density_grids
 from .scenes import Scene, check_scene
 
@@ -124,6 +124,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
     from . import plotting
 
     record: dict[str, Any] = {"index": index, "parameters": params, "status": "done",
+                              "fingerprint": fingerprint(scene, index, params, system),
                               "system": system.to_dict(), "effects": system.effects,
                               "methods": {}}
     solutions: dict[str, Any] = {}
@@ -190,6 +191,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         record["vtu"] = path.name
     if "npz" in scene.formats and arrays:
         atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
+        record["densities"] = f"points/p{index}.npz"     # resume checks it is there
     atomic_json(out_dir / "points" / f"p{index}.json", record)
     if record["status"] == "interrupted":
         raise Interrupted(received() or signal.SIGINT)
@@ -202,12 +204,23 @@ def _point_job(args: tuple) -> dict[str, Any]:
         return run_point(scene, index, params, system, out_dir, progress, token)
     except Interrupted:
         raise
+    except OSError as exc:    # a full disk is the run's fault, not the point's: it stops
+        if storage_fault(exc):
+            raise
+        rec = _failed(scene, index, params, system, exc)
     except Exception as exc:  # a failed point is reported, the others go on
-        rec = {"index": index, "parameters": params, "status": "failed",
-               "error": " ".join(f"{type(exc).__name__}: {exc}".split())}
-        if token is None or holds(out_dir, token):
-            atomic_json(out_dir / "points" / f"p{index}.json", rec)
-        return rec
+        rec = _failed(scene, index, params, system, exc)
+    if token is None or holds(out_dir, token):
+        atomic_json(out_dir / "points" / f"p{index}.json", rec)
+    return rec
+
+
+def _failed(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
+            exc: BaseException) -> dict[str, Any]:
+    """The record of a point that raised ``exc`` (computed again by ``--resume``)."""
+    return {"index": index, "parameters": params, "status": "failed",
+            "fingerprint": fingerprint(scene, index, params, system),
+            "error": " ".join(f"{type(exc).__name__}: {exc}".split())}
 
 
 def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | None = None,
@@ -238,14 +251,12 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
     warn = warn or log
     with OutputDir(out_dir, "--out" if out is not None else "output.directory") as lock, \
             signals_handled(), _dask(scheduler) as client:
-        if resume:
-            records = finished_points(out_dir, scene.source)
-        else:                          # a fresh run: no earlier run's points can mix in
+        if resume:                     # only records of this scene, point and settings
+            records, line = select(out_dir, scene, points)
+            log(line)
+        else:
             records = {}
-            shutil.rmtree(out_dir / "points", ignore_errors=True)
-        records = {i: r for i, r in records.items() if i < len(points)}
-        if records:
-            log(f"  resuming: {len(records)} of {len(points)} point(s) already finished")
+        clear_outputs(out_dir, records)   # the run owns the outputs: no earlier run's mix in
         serial = scheduler is None and (len(points) - len(records) <= 1 or workers == 1)
         # the output directory as an absolute path: a worker (a Dask one in particular)
         # has its own working directory
@@ -254,6 +265,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
                 for i, (params, system) in enumerate(points) if i not in records]
         t0 = time.perf_counter()
         signum = None
+        fault: OSError | None = None
         sweep_bar = Progress(progress if len(jobs) > 1 else False, f"{scene.name} points",
                              total=len(points), unit="point")
         sweep_bar.update(len(records))
@@ -281,12 +293,40 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
         finally:
             sweep_bar.close()
         signum = signum or received()
-        if signum is not None:        # what workers wrote but had not yet reported
+        if signum is not None or fault is not None:   # what workers wrote, not yet reported
             todo = {j[1] for j in jobs}
             records.update({i: r for i, r in point_records(out_dir).items()
                             if i not in records and i in todo})
-        doc = _write_results(scene, points, records, out_dir, time.perf_counter() - t0, signum)
-    return doc
+        clear_temporaries(out_dir)    # of a worker stopped in the middle of a write
+        wall = time.perf_counter() - t0
+        if fault is None:
+            try:
+                return _write_results(scene, points, records, out_dir, wall, signum)
+            except OSError as exc:
+                if not storage_fault(exc):
+                    raise
+                fault = exc
+        raise _storage_failed(fault, scene, points, records, out_dir, wall, signum)
+
+
+def _storage_failed(fault: OSError, scene: Scene, points: list, records: dict[int, dict],
+                    out_dir: Path, wall: float, signum: int | None) -> OSError:
+    """After a write failed for lack of space: ``results.json`` with every finished point
+    (``"status": "failed"``, ``"error"`` names the file) if it can still be written; the
+    one-line error that names the file and says what was kept."""
+    clear_temporaries(out_dir)
+    n = sum(r.get("status") == "done" for r in records.values())
+    try:
+        _write_results(scene, points, records, out_dir, wall, signum, fault)
+        kept = f"results.json lists the {n} finished point(s)"
+    except OSError as exc:
+        if not storage_fault(exc):
+            raise
+        clear_temporaries(out_dir)
+        kept = (f"the {n} finished point(s) are kept in {str(out_dir / 'points')!r} "
+                "(results.json could not be written)")
+    return OSError(fault.errno, f"{fault.strerror or fault}; {kept}; free space and continue "
+                   "with --resume", fault.filename)
 
 
 class SchedulerLost(RuntimeError):
@@ -376,8 +416,10 @@ def _on_dask(client: Any, jobs: list):
 
 
 def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]],
-                   out_dir: Path, wall: float, signum: int | None) -> dict[str, Any]:
-    """results.json (every point: finished, failed or interrupted) and densities.npz."""
+                   out_dir: Path, wall: float, signum: int | None,
+                   fault: OSError | None = None) -> dict[str, Any]:
+    """results.json (every point: finished, failed or interrupted) and densities.npz;
+    after a storage ``fault``, results.json alone (``"status": "failed"``)."""
     from . import __version__
     listed = []
     for i, (params, _) in enumerate(points):
@@ -388,6 +430,10 @@ def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]
            "status": "complete" if signum is None else "interrupted", "points": listed}
     if signum is not None:
         doc["signal"] = signal.Signals(signum).name
+    if fault is not None:        # the rest is made again by --resume
+        doc["status"], doc["error"] = "failed", f"{fault.filename}: {fault.strerror or fault}"
+        atomic_json(out_dir / "results.json", doc)
+        return doc
     atomic_json(out_dir / "results.json", doc)
     if "npz" in scene.formats:
         merged: dict[str, np.ndarray] = {}
