@@ -182,10 +182,16 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         Independent paths, split into ``n_batches`` batches (one random stream
         each; standard errors from the spread between batches).
     dt : float, optional
-        Time step; default T0/120 with T0 = 2π/ω0, ω0² = |a| + |b|X², X the
-        amplitude at 5 energy scales D1/c, at most Δ (the paper's case: X = Δ,
-        dt ≈ 0.05, where halving dt moves E[H] by < 0.05 %, measured).  Must be
-        ≤ 1/ω_max, ω_max² = |a| + 3|b|X², X at 30 energy scales (ValueError).
+        Time step; default the smallest step the system's time scales allow
+        (:func:`._setup.step_bounds`): T0/120 with T0 = 2π/ω0, ω0² = |a| + |b|X²,
+        X the amplitude at 5 energy scales D1/c, at most Δ (the paper's case: X =
+        Δ, dt ≈ 0.05, where halving dt moves E[H] by < 0.05 %, measured); 1/(10 c);
+        the noise time E/D over 4; the time L/v to cross the strip at the typical
+        speed over a divisor from 1/8 (elastic walls) to 256 (r = 0 where noise
+        moves paths off the wall).  Must be ≤ 1/ω_max, ω_max² = |a| + 3|b|X², X at
+        30 energy scales, and at most 8 × each of the other scales' steps
+        (InputError naming the scale); a default step whose run would exceed the
+        budget (:mod:`fpk_vibro.budget`) is refused naming the scale and the cost.
         For an adaptive run (no ``t_sample``) with ``target_rse`` below 1e-3 the
         default shrinks as sqrt(target_rse/1e-3), keeping the O(dt²) bias at
         about 0.4 × the target: the largest bias measured, E[x²] at r = 0.98
@@ -194,7 +200,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         below 2.5e-4 at T0/120.
     t_burn : float, optional
         Burn-in per path before sampling; default 6/λ with λ the slowest energy
-        relaxation rate (λ = c, or the impact loss rate (1 − r²)/T0 when c = 0).
+        relaxation rate (λ = c, or the impact loss rate (1 − r²)/T0 when c = 0;
+        with c > 2 ω0 the overdamped rate ≈ ω0²/c).
     t_sample : float, optional
         Sampled time per path.  Default None: sample until the relative standard
         error of E[H] is ≤ ``target_rse`` (checked every chunk of ~8·10⁶

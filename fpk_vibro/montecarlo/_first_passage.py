@@ -134,8 +134,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         1/sqrt(n_paths) (T is about exponential when H_c is well above E[H]:
         SE ≈ τ/sqrt(n_paths)).
     dt : float, optional
-        Time step; default T0/120 as in :func:`~fpk_vibro.montecarlo.stationary`
-        (bias of τ −0.1 % on the paper's case, module docstring).
+        Time step; default as in :func:`~fpk_vibro.montecarlo.stationary` (T0/120
+        on the paper's case: bias of τ −0.1 %, module docstring).
     t_max : float, optional
         Horizon: paths still inside then are censored (module docstring).  Default:
         continued until every path has exited (at most 500 relaxation times).
