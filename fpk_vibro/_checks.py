@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from typing import Any
 
 __all__ = ["InputError", "invalid", "show", "check_int", "check_float", "check_choice",
-           "check_bool", "closest"]
+           "check_bool", "check_points", "closest"]
 
 #: Longest value representation put in a message.
 _SHOW = 80
@@ -57,9 +57,14 @@ def show(value: Any) -> str:
     return text if len(text) <= _SHOW else text[:_SHOW - 3] + "..."
 
 
+def at(where: str | None, text: str) -> str:
+    """``text`` prefixed by ``<where>: `` when there is a ``where`` (None: no prefix)."""
+    return f"{where}: {text}" if where else text
+
+
 def invalid(where: str | None, name: str, allowed: str, value: Any, why: str = "") -> InputError:
     """The error for ``name`` = ``value`` outside ``allowed`` (to raise)."""
-    msg = f"{where + ': ' if where else ''}{name} must be {allowed}; got {show(value)}"
+    msg = at(where, f"{name} must be {allowed}; got {show(value)}")
     if why:
         msg += f" ({why})"
     return InputError(msg, where=where, name=name)
@@ -124,6 +129,36 @@ def check_choice(name: str, value: Any, choices: tuple, *, where: str | None = N
             return c
     words = [c for c in choices if isinstance(c, str)]
     raise invalid(where, name, f"one of {list(choices)}", value, closest(value, words)[2:-1])
+
+
+#: What :func:`check_points` accepts, for its messages.
+POINTS = "finite real numbers (a number or an array of them)"
+
+
+def check_points(name: str, value: Any, *, where: str | None = None):
+    """``value`` (a number, list or array) as a float array of finite numbers.
+
+    None, strings, booleans, complex or object arrays, NaN and ±inf are refused with
+    one line naming ``name``; for an array the first bad entry and its index.
+    """
+    import numpy as np
+    if value is None or isinstance(value, (str, bytes)):
+        raise invalid(where, name, POINTS, value)
+    try:
+        arr = np.asarray(value)
+    except Exception:            # ragged lists, hostile __array__
+        raise invalid(where, name, POINTS, value) from None
+    if arr.dtype.kind not in "iuf":
+        raise invalid(where, name, POINTS, value)
+    arr = arr.astype(float, copy=False)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        if arr.ndim == 0:
+            raise invalid(where, name, POINTS, value)
+        i = tuple(int(k) for k in np.argwhere(bad)[0])
+        raise invalid(where, name, POINTS, float(arr[i]),
+                      f"at index {i[0] if len(i) == 1 else i} of {arr.size} values")
+    return arr
 
 
 def check_bool(name: str, value: Any, *, where: str | None = None) -> bool:

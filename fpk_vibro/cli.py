@@ -151,8 +151,10 @@ def _print_summary(doc: dict) -> None:
             m, se = rec["moments"], rec.get("moments_se", {})
             cells = [(f"{m[k]:.6g}" + (f"±{se[k]:.1g}" if k in se else "")) if k in m else "-"
                      for k in keys]
+            # a method a signal cut short: its numbers are from the part it finished
+            flag = "  PARTIAL (interrupted)" if e.get("partial") or rec.get("partial") else ""
             print(f"  {label:<24s} {method:<11s} {e['wall_time_s']:7.2f} " +
-                  " ".join(f"{c:>18s}" for c in cells))
+                  " ".join(f"{c:>18s}" for c in cells) + flag)
 
 
 def cmd_study(args: argparse.Namespace) -> int:

@@ -50,8 +50,11 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
     ----------
     sol : fpk_vibro.Solution
     grids : dict, optional
-        ``{"energy": H, "x": x, "y": y, "joint": (x, y)}``; default the grids of a
-        scene run (:func:`fpk_vibro.scales.density_grids`).
+        ``{"energy": H, "x": x, "y": y, "joint": (x, y)}``, each a non-empty 1-D array
+        of finite numbers; a missing key (or no dict) takes the grid of a scene run
+        (:func:`fpk_vibro.scales.density_grids`).  Anything else (another key, a
+        grid of another shape, NaN): one-line :class:`~fpk_vibro._checks.InputError`
+        naming the key.
 
     Returns
     -------
@@ -63,8 +66,7 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
     """
     xr = _xarray()
     from . import __version__
-    from .scales import density_grids
-    g = grids or density_grids(sol.system, sol)
+    g = _grids(sol, grids)
     data: dict[str, Any] = {}
     try:
         data["pdf_energy"] = (("H",), sol.pdf_energy(g["energy"]))
@@ -100,6 +102,45 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
                        ("y_joint", "m/s")):
         ds[name].attrs["units"] = unit
     return ds
+
+
+#: The keys of ``grids`` in :func:`solution_dataset`.
+GRID_KEYS = ("energy", "x", "y", "joint")
+
+
+def _grids(sol, grids: Any) -> dict[str, Any]:
+    """``grids`` checked (one line naming the key), the missing ones the defaults."""
+    from collections.abc import Mapping
+
+    from ._checks import check_points, closest, invalid
+    from .scales import density_grids
+    where = "to_xarray"
+    if grids is None:
+        grids = {}
+    if not isinstance(grids, Mapping):
+        raise invalid(where, "grids", f"a dict with keys from {list(GRID_KEYS)}", grids)
+    for k in grids:
+        if k not in GRID_KEYS:
+            hint = closest(k, GRID_KEYS)
+            raise invalid(where, "grids", f"a dict with keys from {list(GRID_KEYS)}",
+                          k, "unknown key" + (f"; {hint[2:-1]}" if hint else ""))
+
+    def axis(name: str, v: Any) -> np.ndarray:
+        arr = check_points(name, v, where=where)
+        if arr.ndim != 1 or arr.size == 0:
+            raise invalid(where, name, "a non-empty 1-D array of finite numbers", v,
+                          f"shape {arr.shape}")
+        return arr
+
+    out = dict(density_grids(sol.system, sol)) if set(grids) != set(GRID_KEYS) else {}
+    for k, v in grids.items():
+        if k != "joint":
+            out[k] = axis(f"grids[{k!r}]", v)
+        elif isinstance(v, (str, bytes)) or not hasattr(v, "__len__") or len(v) != 2:
+            raise invalid(where, "grids['joint']", "a pair (x, y) of 1-D arrays", v)
+        else:
+            out[k] = tuple(axis(f"grids['joint'][{i}]", v[i]) for i in range(2))
+    return out
 
 
 def _records(out_dir: Path) -> dict[str, Any]:

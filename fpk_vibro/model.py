@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import InputError, check_float, invalid
+from ._checks import InputError, at, check_float, invalid
 from .options import REQUIRED, Option
 
 __all__ = ["VibroImpactSystem", "Wall", "BARRIER_KINDS", "FIELDS", "WALL_FIELDS",
@@ -59,7 +59,7 @@ class Wall:
             object.__setattr__(self, name, opt.validate(name, getattr(self, name), "Wall"))
 
     @classmethod
-    def of(cls, value: Any, side: str, where: str = "VibroImpactSystem") -> "Wall | None":
+    def of(cls, value: Any, side: str, where: str | None = "VibroImpactSystem") -> "Wall | None":
         """A Wall from a Wall, a {position, r} table or None (no wall)."""
         if value is None or isinstance(value, Wall):
             return value
@@ -72,7 +72,7 @@ class Wall:
             try:
                 return cls(**value)
             except InputError as exc:
-                raise InputError(f"{where}: {side}.{exc.name} {exc.rule}", where=where,
+                raise InputError(at(where, f"{side}.{exc.name} {exc.rule}"), where=where,
                                  name=side) from None
         raise invalid(where, side, "a Wall, a table {position, r} or None", value)
 

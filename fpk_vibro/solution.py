@@ -21,6 +21,7 @@ found through :data:`~fpk_vibro.solution_file.KIND_MODULES`, imported on demand.
 from __future__ import annotations
 
 import abc
+import functools
 import json
 import os
 from pathlib import Path
@@ -28,7 +29,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ._checks import InputError, invalid
+from ._checks import InputError, check_points, invalid
 from .io import atomic_write
 from .model import VibroImpactSystem
 from .solution_file import (FORMAT_NAME, FORMAT_VERSION, KIND_MODULES, RESERVED, Corrupt,
@@ -37,6 +38,37 @@ from .solution_file import (FORMAT_NAME, FORMAT_VERSION, KIND_MODULES, RESERVED,
 __all__ = ["Solution", "MOMENT_KEYS", "KIND_MODULES", "Rule", "Stored"]
 
 MOMENT_KEYS = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
+
+#: The density methods and their arguments, in order: every definition of one of them
+#: in a subclass gets the one argument check (:func:`_checked`).
+_POINT_ARGS = {"pdf_energy": ("H",), "pdf_joint": ("x", "y"), "pdf_x": ("x",),
+               "pdf_y": ("y",), "impact_speed_pdf": ("wall", "u")}
+
+
+def _checked(name: str, method):
+    """``method`` with its arguments checked first: the wall by
+    :meth:`Solution.wall_named`, the points by :func:`~fpk_vibro._checks.check_points`
+    (finite real numbers; NaN, ±inf, None, strings: one line naming the argument)."""
+    params = _POINT_ARGS[name]
+
+    @functools.wraps(method)
+    def checked(self, *args, **kwargs):
+        where = f"{type(self).__name__}.{name}"
+        for i, param in enumerate(params):
+            if i < len(args):
+                value = args[i]
+            elif param in kwargs:
+                value = kwargs[param]
+            else:
+                continue                 # missing: the method's own TypeError
+            if param == "wall":
+                self.wall_named(value)
+            else:
+                check_points(param, value, where=where)
+        return method(self, *args, **kwargs)
+
+    checked._points_checked = True
+    return checked
 
 
 class Solution(abc.ABC):
@@ -54,6 +86,10 @@ class Solution(abc.ABC):
         super().__init_subclass__(**kwargs)
         if cls.kind:
             Solution._registry[cls.kind] = cls
+        for name in _POINT_ARGS:        # every override checks its arguments alike
+            method = cls.__dict__.get(name)
+            if callable(method) and not getattr(method, "_points_checked", False):
+                setattr(cls, name, _checked(name, method))
 
     # -- densities ----------------------------------------------------------------
     @abc.abstractmethod
@@ -105,10 +141,30 @@ class Solution(abc.ABC):
         from .labelled import solution_dataset
         return solution_dataset(self, grids)
 
+    def snapshot_time(self) -> float | None:
+        """The time of a transient density (``time``, or ``info["time"]`` of a loaded
+        FE snapshot); None for a stationary one."""
+        t = getattr(self, "time", None)
+        if t is None and isinstance(getattr(self, "info", None), dict):
+            t = self.info.get("time")
+        return None if t is None else float(t)
+
     def power_balance(self) -> dict[str, float]:
         """The stationary power balance D1 + D2 E[x²] = c E[y²] + Σ_w P_w
         (docs/impacts.md): its three terms and the relative residual (with
-        ``residual_se`` where the method has standard errors)."""
+        ``residual_se`` where the method has standard errors).
+
+        Raises
+        ------
+        InputError
+            For a transient density (one time of ``transient``): its balance has the
+            extra term dE[H]/dt, which one time does not give.
+        """
+        t = self.snapshot_time()
+        if t is not None:
+            raise invalid(f"{type(self).__name__}.power_balance", "time",
+                          "None (a stationary density)", t, "a transient density: its "
+                          "balance needs dE[H]/dt, which one time does not give")
         s, m = self.system, self.moments()
         imp = self.impacts() if s.has_barrier else {}
         noise = s.D1 + s.D2 * m["E_x2"]

@@ -366,6 +366,9 @@ class FEMSolution(Solution):
         """Write the mesh with the nodal density ``p`` (vertex values) through meshio.
 
         Any extension meshio writes works (``.vtu`` for ParaView, ``.xdmf``, ...).
+        The vertices are written as 3-D points (z = 0), which VTU, VTK, STL, ... need:
+        given 2-D points meshio would print a warning on every write, even under
+        ``--quiet``.
         """
         import meshio
         from .._checks import invalid
@@ -375,10 +378,13 @@ class FEMSolution(Solution):
         if path.suffix.lower() not in meshio.extension_to_filetypes:
             raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
                           "meshio writes (.vtu, .xdmf, .vtk, ...)", str(path))
-        vertex_vals = self.dofs[self.basis.nodal_dofs[0]]
+        from skfem.io.meshio import to_meshio
+        out = to_meshio(self.mesh, point_data={"p": self.dofs[self.basis.nodal_dofs[0]]})
+        out.points = np.column_stack([out.points, np.zeros(len(out.points))])
         from ..io import atomic_files
         try:
-            atomic_files(path, lambda p: self.mesh.save(str(p), point_data={"p": vertex_vals}))
+            atomic_files(path, lambda p: meshio.write(     # .msh: gmsh, as skfem writes it
+                str(p), out, **({"file_format": "gmsh"} if Path(p).suffix == ".msh" else {})))
         except (meshio.ReadError, meshio.WriteError, KeyError) as exc:
             raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
                           "meshio writes", str(path), str(exc)) from None
