@@ -227,7 +227,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="run even beyond the estimated memory, time or sweep limits")
     pr.add_argument("--resume", action="store_true",
                     help="keep the points an earlier run of this scene finished in the "
-                         "output directory; compute the missing and interrupted ones")
+                         "output directory (same scene, parameters and settings, files "
+                         "present); compute the missing, interrupted and failed ones")
     pr.add_argument("--scheduler", default=None,
                     help="Dask scheduler ADDRESS for sweeps (extra fpk-vibro[distributed])")
     pr.set_defaults(func=cmd_run)

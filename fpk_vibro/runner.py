@@ -233,7 +233,14 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
     the output directory, its lock).  ``progress`` (None: on a terminal) is passed
     to the solvers of a run in this process (one point, or ``workers=1``).
     ``resume``: keep the points an earlier run of the same scene finished in the
-    output directory and compute only the others.  SIGINT or SIGTERM stops the
+    output directory and compute only the others (:func:`fpk_vibro.resume.select`:
+    a record is kept when its fingerprints match and its files are there; failed
+    points are computed again); ``log`` gets one line saying how many and why.
+    Without it the run clears the earlier run's outputs first (a run owns its
+    directory: :func:`fpk_vibro.resume.clear_outputs`).  A full disk stops the run:
+    ``results.json`` lists what finished (``"status": "failed"``, ``"error"`` names
+    the file) and the :class:`OSError` raised names the file and says what was kept.
+    SIGINT or SIGTERM stops the
     run within about a second: workers are terminated, ``results.json`` lists every
     finished point and marks the others ``"status": "interrupted"``, and the
     document's ``"status"`` is ``"interrupted"`` (``"signal"`` names it).
