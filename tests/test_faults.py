@@ -103,15 +103,55 @@ def test_signal_in_a_process_sweep_loses_nothing_and_resume_completes(tmp_path, 
             assert doc2["points"][p["index"]] == p
 
 
+def start_on_a_terminal(args):
+    """``fpk-vibro args`` with stderr on a pseudo-terminal (120 columns), so that it
+    shows its progress line there as to a user; returns (process, the text written
+    to the terminal so far (a list, read by a thread), the thread, the terminal)."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+    import threading
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))
+    proc = subprocess.Popen([sys.executable, "-m", "fpk_vibro", *args], stdout=subprocess.PIPE,
+                            stderr=slave, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    os.close(slave)
+    text: list[str] = []
+
+    def drain():                       # the terminal's buffer must never fill
+        while True:
+            try:
+                data = os.read(master, 4096)
+            except OSError:            # EIO: the process closed the terminal
+                return
+            if not data:
+                return
+            text.append(data.decode("utf-8", "replace"))
+    reader = threading.Thread(target=drain, daemon=True)
+    reader.start()
+    return proc, text, reader, master
+
+
 def test_signal_on_a_single_monte_carlo_point_keeps_the_partial_result(tmp_path):
     path, out = scene(tmp_path, t_sample=1e5, r=(0.9,)), tmp_path / "out"
-    proc = start(["run", str(path), "--out", str(out)], env={**os.environ,
-                                                          "PYTHONUNBUFFERED": "1"})
-    wait_for(lambda: (out / ".fpk-vibro.lock").exists())
-    time.sleep(4.0)                    # compiled and sampling
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=30)
+    proc, text, reader, master = start_on_a_terminal(["run", str(path), "--out", str(out)])
+    try:
+        # the sign: the progress line says "sampling" once the first chunk of samples
+        # is in (the signal handler is installed before any work; compiling on a cold
+        # cache and the burn-in come before it, however long they take)
+        wait_for(lambda: proc.poll() is not None or "sampling" in "".join(text), 600.0)
+        assert proc.poll() is None, "".join(text)
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=30)
+        reader.join(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        os.close(master)
+    err = "".join(text)
     assert proc.returncode == 130, err
+    assert "partial" in err and "--resume" in err and "Traceback" not in err, err
     doc = json.loads((out / "results.json").read_text())
     point = doc["points"][0]
     assert point["status"] == "interrupted"
