@@ -75,7 +75,9 @@ class Solution(abc.ABC):
     """Stationary or transient response densities of a :class:`VibroImpactSystem`.
 
     All densities are vectorised over NumPy arrays (broadcasting ``x`` with ``y``)
-    and are zero outside the strip ``left ≤ x ≤ right``.
+    and are zero outside the strip ``left ≤ x ≤ right``.  Their points must be finite
+    real numbers: NaN, ±inf, None or a string is an :class:`~fpk_vibro._checks.InputError`
+    naming the argument (one check, given to every subclass's densities).
     """
 
     kind: ClassVar[str] = ""
