@@ -164,13 +164,15 @@ class Options(_Options):
             key = "bins"
         elif 48.0 * self.n_paths > 0.5 * memory:
             key = "n_paths"
-        elif self.dt is None and S.binding_scale(system)[0] != "period":
-            key = "dt"      # a fast time scale sets the step (refused by prepare)
         path_steps = self.n_paths * math.ceil(t / r["dt"])
         threads = self.threads or 2
         seconds = 1.0 + path_steps * _step_weight(system, r["dt"], r["sample_every"]
                                                   if mode == "stationary" else 0) / \
             (PATH_STEPS_PER_S * min(threads, 2))
+        if key not in ("bins", "n_paths") and self.dt is None and \
+                S.binding_scale(system)[0] != "period" and \
+                seconds * r["dt"] / S.step_bounds(system)["period"][1] <= MAX_SECONDS:
+            key = "dt"      # a fast time scale makes it costly (refused by prepare)
         return Cost(memory, float(path_steps), "path-steps", seconds, key)
 
 
