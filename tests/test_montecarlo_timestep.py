@@ -36,8 +36,8 @@ def test_strong_additive_noise_paper_system():
     The crossing time of the strip at the typical speed (~5 ms) sets the step."""
     s = VibroImpactSystem.paper(r=0.92, D1=1e6)
     sol = mc.stationary(s, seed=11, n_paths=512, t_burn=2.0, t_sample=5.0)
-    assert S.binding_scale(s)[0] == "crossing time L/v"
     _within(sol, "E_y2", 4.60e4)
+    assert S.binding_scale(s)[0] == "crossing time L/v"
 
 
 def test_strong_parametric_noise_paper_system():
@@ -68,7 +68,7 @@ def test_tiny_gap_elastic_exact():
     T0/120 gave Δ² (every path stopped on a wall after max_impacts impacts per step)."""
     d = 1e-6
     s = VibroImpactSystem.paper(delta=d, r=1.0, D2=0.0)
-    sol = mc.stationary(s, seed=15, n_paths=256, t_burn=0.0, t_sample=2e-3)
+    sol = mc.stationary(s, seed=15, n_paths=64, t_burn=0.0, t_sample=2.0)
     _within(sol, "E_x2", d * d / 3.0)
 
 
@@ -95,6 +95,25 @@ def test_overdamped_given_step_velocity_is_right():
     _within(sol, "E_y2", 1e-8)
 
 
+def test_wall_the_force_pushes_into():
+    """A random scene of the suite (tests/test_check_promise.py): a = −1, b = −0.3
+    pushes paths onto the walls at ±0.8, where they bounce on the scale 2D/F² =
+    0.011.  E[y²] = 1.038·10⁻³ (± 0.3 %, MC at dt = 2.4·10⁻⁴); T0/120 = 0.048
+    gave 1.40·10⁻³ (+35 %)."""
+    s = VibroImpactSystem(a=-1.0, b=-0.3, c=0.02, D1=0.005, D2=0.0, delta=0.8, r=0.8)
+    sol = mc.stationary(s, seed=3, n_paths=256, t_burn=50.0, t_sample=50.0)
+    _within(sol, "E_y2", 1.038e-3)
+    assert S.binding_scale(s)[0] == "bounce time 2D/F²"
+
+
+def test_budget_names_t_sample_when_it_is_the_cause():
+    """On a fast system a t_sample beyond the budget at any step is still named."""
+    s = VibroImpactSystem.paper(r=0.92, D1=1e6)
+    with pytest.raises(InputError) as exc:
+        mc.stationary(s, t_sample=1e12)
+    assert exc.value.name == "t_sample"
+
+
 # -- a given step that is too coarse is refused, naming the scale ---------------------
 @pytest.mark.parametrize("system, scale", [
     (VibroImpactSystem.paper(r=0.92, D1=1e6), "crossing time L/v"),
@@ -106,7 +125,7 @@ def test_coarse_given_step_is_refused(system, scale):
     dt = S.dt_limit(system) * 0.99          # stable, so only the new rule can refuse it
     dt = min(dt, 0.05)
     with pytest.raises(InputError) as exc:
-        mc.stationary(system, dt=dt, t_sample=1.0, t_burn=0.0)
+        mc.stationary(system, dt=dt, n_paths=64, t_sample=10.0, t_burn=0.0)
     msg = str(exc.value)
     assert "\n" not in msg and exc.value.name == "dt" and scale in msg, msg
 
@@ -130,4 +149,3 @@ def test_paper_default_step_unchanged(r):
     T0 = 2.0 * math.pi / math.sqrt(1.0 + 0.2 * 0.36)
     assert S.default_dt(s) == pytest.approx(T0 / 120.0, rel=1e-12)
     assert S.default_sample_every(s, S.default_dt(s)) == 30
-    assert S.binding_scale(s)[0] == "period"
