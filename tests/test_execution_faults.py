@@ -45,6 +45,24 @@ def holds_lock(pid, out):
     return False
 
 
+def marked(mark):
+    """Pids of the live processes whose environment carries ``FPK_TEST_MARK=mark``:
+    a run started by the test and every process it started, orphans included."""
+    tag, out = f"FPK_TEST_MARK={mark}".encode(), []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if tag in (d / "environ").read_bytes().split(b"\0") and alive(int(d.name)):
+                    out.append(int(d.name))
+            except OSError:
+                pass
+    return out
+
+
+def run(args, mark, **kw):
+    return start(args, env={**os.environ, "FPK_TEST_MARK": mark}, **kw)
+
+
 def end(pids):
     """Kill what a test started (by pid) if it is still there."""
     for pid in pids:
@@ -63,7 +81,7 @@ def test_a_killed_worker_fails_its_point_and_the_others_go_on(tmp_path):
     """kill -9 of a worker (what the OOM killer does): its point fails with the
     reason, the others finish, --resume computes the failed one."""
     path, out = scene(tmp_path, t_sample=40000.0, r=(0.5, 0.7, 0.9)), tmp_path / "out"
-    proc = start(["run", str(path), "--out", str(out), "--workers", "2"])
+    proc = run(["run", str(path), "--out", str(out), "--workers", "2"], "killed-worker")
     seen = set()
     try:
         def computing():
@@ -74,7 +92,7 @@ def test_a_killed_worker_fails_its_point_and_the_others_go_on(tmp_path):
         os.kill(victim, signal.SIGKILL)
         _, err = proc.communicate(timeout=90)
     finally:
-        end([proc.pid, *seen])
+        end([proc.pid, *seen, *marked("killed-worker")])
     assert proc.returncode == 1, err
     assert "Traceback" not in err and err.count("\n") == 1, err
     assert "FAILED" in err and "worker process died" in err and "SIGKILL" in err
@@ -101,8 +119,9 @@ def test_never_more_workers_than_points_and_a_signal_ends_them_all(tmp_path, how
     (SIGINT to the whole process group) or SIGTERM to the run ends every one of
     them, with one line and no traceback."""
     path, out = scene(tmp_path, t_sample=200000.0, r=(0.5, 0.9)), tmp_path / "out"
-    proc = start(["run", str(path), "--out", str(out), "--workers", "32"],
-                 start_new_session=True)          # its own process group, as in a terminal
+    mark = "signal-" + how.replace(" ", "-")
+    proc = run(["run", str(path), "--out", str(out), "--workers", "32"], mark,
+               start_new_session=True)            # its own process group, as in a terminal
     seen, most = set(), [0]
     try:
         def sign():
@@ -118,13 +137,13 @@ def test_never_more_workers_than_points_and_a_signal_ends_them_all(tmp_path, how
         else:
             proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=30)
-        seen.update(children(proc.pid) if alive(proc.pid) else ())
+        left = marked(mark)               # orphans too: nothing the run started is left
     finally:
-        end([proc.pid, *seen])
+        end([proc.pid, *seen, *marked(mark)])
     assert most[0] <= 2, f"{most[0]} worker processes for 2 points"
     assert proc.returncode in (130, 143), err
     assert "Traceback" not in err and err.count("\n") == 1, err
-    assert not [w for w in seen if alive(w)]
+    assert not left and not [w for w in seen if alive(w)]
     doc = json.loads((out / "results.json").read_text())
     assert doc["status"] == "interrupted"
 
@@ -132,7 +151,7 @@ def test_never_more_workers_than_points_and_a_signal_ends_them_all(tmp_path, how
 def test_workers_hold_no_lock_and_die_with_the_run(tmp_path):
     """kill -9 of the run: its workers die too, and the directory is free at once."""
     path, out = scene(tmp_path, t_sample=400000.0, r=(0.5, 0.9)), tmp_path / "out"
-    proc = start(["run", str(path), "--out", str(out), "--workers", "2"])
+    proc = run(["run", str(path), "--out", str(out), "--workers", "2"], "kill-9-run")
     seen = set()
     try:
         def both():
@@ -145,12 +164,12 @@ def test_workers_hold_no_lock_and_die_with_the_run(tmp_path):
         assert not [w for w in seen if holds_lock(w, out)], "a worker holds the lock"
         proc.kill()
         proc.wait()
-        wait_for(lambda: not [w for w in seen if alive(w)], timeout=10)
+        wait_for(lambda: not marked("kill-9-run"), timeout=10)
         quick = scene(tmp_path, t_sample=100.0, r=(0.9,), name="quick.toml")
         r = subprocess.run([sys.executable, "-m", "fpk_vibro", "run", str(quick), "--out",
                             str(out), "--quiet"], capture_output=True, text=True, timeout=120)
     finally:
-        end([proc.pid, *seen])
+        end([proc.pid, *seen, *marked("kill-9-run")])
     assert r.returncode == 0 and "in use" not in r.stderr, r.stderr
 
 
