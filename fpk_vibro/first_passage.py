@@ -7,6 +7,12 @@ R(t) = P(T > t).  Starts: a point ``(x0, y0)``, a Gaussian ``{"mean": (x0, y0),
 "std": (sx, sy)}``, or ``"stationary"`` (the stationary density conditioned on the
 safe set).
 
+Requested ``times`` (:func:`check_times`, shared by the three engines) are finite
+numbers >= 0 in any order: they are sorted for you and duplicates kept once.  Each
+engine computes R on its own time grid, set by its own scales (the mean time, the
+horizon of its paths), and reads R at the requested times from it
+(:func:`merge_requested`): one huge requested time never coarsens the grid.
+
 The three engines compute it each their way (:func:`fpk_vibro.fem.first_passage`,
 :func:`fpk_vibro.averaging.first_passage`,
 :func:`fpk_vibro.montecarlo.first_passage`) and return a :class:`FirstPassage`.
@@ -14,6 +20,7 @@ The three engines compute it each their way (:func:`fpk_vibro.fem.first_passage`
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -22,7 +29,97 @@ import numpy as np
 from ._checks import check_float, invalid
 from .model import VibroImpactSystem
 
-__all__ = ["FirstPassage", "parse_start", "check_energy"]
+__all__ = ["FirstPassage", "parse_start", "check_energy", "check_times", "survival_at",
+           "merge_requested", "MAX_TIMES"]
+
+#: Most requested times accepted.
+MAX_TIMES = 10 ** 6
+
+_TIMES_RULE = "a non-empty sequence of finite numbers >= 0 (any order)"
+
+
+def check_times(where: str, times: Any) -> np.ndarray | None:
+    """The requested times of R(t): None, or a sorted array of distinct floats.
+
+    A list, tuple, range or 1-D numeric array of finite numbers >= 0 (at most
+    :data:`MAX_TIMES`), in any order: they are sorted and duplicates dropped.  Anything
+    else (a string, a bool, NaN, a negative time, an empty sequence) raises a one-line
+    :class:`~fpk_vibro._checks.InputError` naming ``times``.
+    """
+    if times is None:
+        return None
+    if isinstance(times, np.ndarray):
+        if times.ndim != 1 or times.dtype.kind not in "iuf":
+            raise invalid(where, "times", _TIMES_RULE, times,
+                          f"an array of dtype {times.dtype} and shape {times.shape}")
+        values = list(times.tolist())
+    elif isinstance(times, (list, tuple, range)):
+        values = list(times)
+    else:
+        raise invalid(where, "times", _TIMES_RULE, times)
+    if not values:
+        raise invalid(where, "times", _TIMES_RULE, times, "empty")
+    if len(values) > MAX_TIMES:
+        raise invalid(where, "times", _TIMES_RULE + f", at most {MAX_TIMES}",
+                      f"<{len(values)} times>")
+    out = np.empty(len(values))
+    for i, t in enumerate(values):
+        ok = isinstance(t, numbers.Real) and not isinstance(t, bool)
+        try:
+            v = float(t) if ok else math.nan
+        except (OverflowError, ValueError):
+            v = math.nan
+        if not (math.isfinite(v) and v >= 0):
+            raise invalid(where, "times", _TIMES_RULE, times, f"entry {i} is {t!r}")
+        out[i] = v
+    return np.unique(out)
+
+
+def survival_at(T: np.ndarray, S: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """R(t) read on the grid (T, S): linear between grid times, and beyond the last
+    time continued with the decay rate of the last tenth of the grid."""
+    t = np.asarray(t, dtype=float)
+    R = np.interp(t, T, S)
+    if np.any(t > T[-1]) and S[-1] > 0 and T.size > 1:
+        k = max(1, len(T) // 10)
+        rate = (math.log(max(S[-1 - k], 1e-300)) - math.log(S[-1])) / (T[-1] - T[-1 - k])
+        with np.errstate(over="ignore", under="ignore"):
+            R = np.where(t > T[-1], S[-1] * np.exp(-max(rate, 0.0) * (t - T[-1])), R)
+    return R
+
+
+def merge_requested(T: np.ndarray, S: np.ndarray, requested: np.ndarray | None,
+                    exact: Callable[[np.ndarray], np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The solver's grid (T, S) with the requested times added: R at them from
+    ``exact(t)`` where given (up to T[-1]), else read on the grid
+    (:func:`survival_at`)."""
+    if requested is None or requested.size == 0:
+        return T, S
+    R = survival_at(T, S, requested)
+    if exact is not None:
+        inside = requested <= T[-1]
+        if np.any(inside):
+            R[inside] = exact(requested[inside])
+    times = np.concatenate([T, requested])
+    order = np.argsort(times, kind="stable")
+    times, values = times[order], np.concatenate([S, R])[order]
+    keep = np.concatenate([[True], np.diff(times) > 0])
+    return times[keep], np.clip(values[keep], 0.0, 1.0)
+
+
+def _coordinate(where: str, name: str, value: Any) -> np.ndarray:
+    """x0 or y0 of :meth:`FirstPassage.mean_time`: finite numbers (arrays broadcast)."""
+    rule = "a finite number or an array of finite numbers"
+    if value is None or isinstance(value, (bool, str, bytes)):
+        raise invalid(where, name, rule, value)
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise invalid(where, name, rule, value) from None
+    if v.dtype.kind != "f" or not np.all(np.isfinite(v)):
+        raise invalid(where, name, rule, value)
+    return v
 
 
 def check_energy(where: str, system: VibroImpactSystem, energy: Any) -> float:
@@ -98,14 +195,17 @@ class FirstPassage:
     def mean_time(self, x0: Any = None, y0: Any = None) -> Any:
         """τ from the point (x0, y0) (arrays broadcast); no arguments: τ for the start.
 
-        Monte Carlo knows τ only for its own start.
+        Monte Carlo knows τ only for its own start.  A missing (None), NaN, infinite
+        or non-numeric coordinate raises a one-line InputError naming it.
         """
         if x0 is None and y0 is None:
             return self.mean
+        where = f"{self.method}.first_passage"
+        x, y = _coordinate(where, "x0", x0), _coordinate(where, "y0", y0)
         if self._mean_at is None:
-            raise ValueError(f"{self.method}.first_passage: mean_time(x0, y0) is known only "
+            raise ValueError(f"{where}: mean_time(x0, y0) is known only "
                              f"for the start {self.start[1]!r}; call mean_time()")
-        return self._mean_at(np.asarray(x0, float), np.asarray(y0, float))
+        return self._mean_at(x, y)
 
     def reliability(self, t: Any) -> Any:
         """R(t) = P(T > t) for the start: interpolated on :attr:`times`, and beyond
@@ -113,13 +213,7 @@ class FirstPassage:
         t = np.asarray(t, dtype=float)
         if np.any(~np.isfinite(t)) or np.any(t < 0):
             raise invalid(f"{self.method}.first_passage", "t", "finite times >= 0", t)
-        R = np.interp(t, self.times, self.survival)
-        T, S = self.times, self.survival
-        if np.any(t > T[-1]) and S[-1] > 0:
-            k = max(1, len(T) // 10)
-            rate = (math.log(max(S[-1 - k], 1e-300)) - math.log(S[-1])) / (T[-1] - T[-1 - k])
-            R = np.where(t > T[-1], S[-1] * np.exp(-rate * (t - T[-1])), R)
-        return R
+        return survival_at(self.times, self.survival, t)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-able summary (for results.json)."""

@@ -9,24 +9,78 @@ Pontryagin's equation m τ' + ½ σ² τ'' = −1 with τ(H_c) = 0 and τ' bound
 p_s the averaged stationary density (:func:`fpk_vibro.averaging.stationary`).  The
 reliability R(t) comes from the conservative finite-volume generator of
 :mod:`fpk_vibro.averaging.transient` on (H_min, H_c) with the top face absorbing
-(p = 0 beyond it), by its eigen-decomposition.
+(p = 0 beyond it), by its eigen-decomposition, on its own grid of times (up to 5 τ
+or the largest requested time, at most 40 τ) and at the requested times.
+
+τ is integrated in logarithms (g = 2F/(σ² p_s) scaled by its largest value), so it
+is finite up to the float range; a larger one (e.g. the paper's case with
+H_c = 100: τ ~ 10^1000s) is refused in one line with its magnitude.  The
+eigen-decomposition resolves the slowest rate only while eps ‖A‖ τ is small; beyond
+that (τ ≳ 10^9 on the paper's case) R(t) is the exponential law exp(−t/τ) of the
+quasi-stationary regime, whose error O(1/(λ τ)) (λ the relaxation rate) is then
+far below the decomposition's (``info["survival_method"]``).
 """
 from __future__ import annotations
 
+import math
 from typing import Any, Sequence
 
 import numpy as np
 from scipy import integrate, linalg
 
-from .._checks import check_int
-from ..first_passage import FirstPassage, check_energy, parse_start
+from .._checks import InputError, check_int
+from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
+                             parse_start)
 from ..model import VibroImpactSystem, check_system
 from ..orbits import energy_floor, orbit_nodes
 from .coefficients import coefficients
 from .stationary import stationary
 from .transient import averaged_operator, energy_faces
 
-__all__ = ["first_passage"]
+__all__ = ["first_passage", "log10_mean_time"]
+
+#: Largest accepted eps ‖A‖ τ of the eigen-decomposition (else the exponential law).
+RESOLVABLE = 1e-3
+#: Largest τ returned (beyond: refused with its magnitude).
+MAX_TAU = 1e300
+#: The tabulated R stops at this many τ (R ~ e^-40) even if later times are asked.
+HORIZON = 40.0
+
+
+def _log_tau(system: VibroImpactSystem, sol, H_c: float, n_grid: int
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """(u, ln τ(u)) on a grid of [floor, H_c] (quadratically graded at the floor):
+    τ(u) = ∫_u^{H_c} g, g = 2F/(σ² p_s), with ln p_s = ln T − Φ − ln Z (no
+    underflow) and the integral scaled by max g."""
+    floor = energy_floor(system)
+    u = floor + (H_c - floor) * np.linspace(0.0, 1.0, n_grid + 1) ** 2
+    with np.errstate(all="ignore"):
+        lnp = np.log(orbit_nodes(system, u[1:], sol.n_theta).period) - sol.phi(u[1:]) \
+            - math.log(sol.Z)
+        p = np.concatenate([[0.0], np.exp(lnp)])
+        p[0] = sol.pdf_energy(u[:1])[0]
+        F = integrate.cumulative_trapezoid(p, u, initial=0.0)
+        _, _, s2 = coefficients(system, u[1:])
+        lng = np.empty_like(u)
+        lng[1:] = math.log(2.0) + np.log(F[1:]) - np.log(s2) - lnp
+        g1, g2 = np.exp(lng[1] - lng[2]), 1.0           # g[0] = 2 g[1] − g[2], scaled
+        lng[0] = lng[2] + np.log(max(2.0 * g1 - g2, 1e-300))
+    top = float(np.max(lng))
+    gs = np.exp(lng - top)
+    # τ(u_i)/e^top = ∫_{u_i}^{H_c} g/e^top, summed from the top (no cancellation)
+    pieces = 0.5 * (gs[1:] + gs[:-1]) * np.diff(u)
+    tail = np.concatenate([np.cumsum(pieces[::-1])[::-1], [0.0]])
+    with np.errstate(divide="ignore"):
+        return u, top + np.log(tail)
+
+
+def log10_mean_time(system: VibroImpactSystem, H_c: float, H0: float | None = None,
+                    n_grid: int = 4000) -> float:
+    """log10 of the averaged τ from the energy H0 (default: the floor), even where τ
+    itself overflows: the magnitude an unresolvable mean time is refused with."""
+    u, ltau = _log_tau(system, stationary(system), H_c, n_grid)
+    H0 = u[0] if H0 is None else H0
+    return float(np.interp(H0, u, ltau)) / math.log(10.0)
 
 
 def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
@@ -43,7 +97,9 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         As in :func:`fpk_vibro.fem.first_passage`; a point enters through its
         energy H(x0, y0) only (averaging forgets the phase).
     times : sequence of float, optional
-        R(t) is tabulated up to the largest of these and 5 τ.
+        Times at which R(t) must be known, in any order (checked by
+        :func:`fpk_vibro.first_passage.check_times`); R is tabulated on its own grid
+        (to 5 τ or the largest of them, at most 40 τ) and evaluated at these.
     n_grid : int
         Quadrature nodes of the τ integral (quadratically graded at the floor).
     n_cells : int
@@ -53,59 +109,101 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     -------
     FirstPassage
         ``mean_time(x0, y0)`` = τ(H(x0, y0)).
+
+    Raises
+    ------
+    InputError
+        For an invalid argument, naming it; for a mean time beyond the float range
+        (naming ``energy``, with its magnitude).
     """
     where = "averaging.first_passage"
     check_system(where, system)
     H_c = check_energy(where, system, energy)
     kind, value = parse_start(where, system, start, H_c)
+    requested = check_times(where, times)
     n_grid = check_int("n_grid", n_grid, 16, 10 ** 7, where=where)
     n_cells = check_int("n_cells", n_cells, 16, 20000, where=where)
     sol = stationary(system)
-    floor = energy_floor(system)
-    u = floor + (H_c - floor) * np.linspace(0.0, 1.0, n_grid + 1) ** 2
-    p = sol.pdf_energy(u)
-    F = integrate.cumulative_trapezoid(p, u, initial=0.0)
-    _, _, s2 = coefficients(system, u[1:])
-    g = np.empty_like(u)
-    g[1:] = 2.0 * F[1:] / (s2 * p[1:])
-    g[0] = 2.0 * g[1] - g[2]                   # the finite limit at the floor
-    G = integrate.cumulative_trapezoid(g, u, initial=0.0)
-    tau_of_H = G[-1] - G                        # τ(u) = ∫_u^{H_c} g
-
-    def tau(H):
-        return np.where(H < H_c, np.interp(H, u, tau_of_H), 0.0)
-
-    faces = energy_faces(system, H_c, n_cells)
-    A = averaged_operator(system, faces, sol).toarray()
-    c, h = 0.5 * (faces[1:] + faces[:-1]), np.diff(faces)
-    # the top face absorbs: flux ½ σ² p_s(H_c)/p_s(c_N) p_N / (H_c − c_N)
-    _, _, s2c = coefficients(system, np.array([H_c]))
-    Tf, Tc = (orbit_nodes(system, np.array([x])).period[0] for x in (H_c, c[-1]))
-    ratio = Tf / Tc * np.exp(sol.phi(np.array([c[-1]]))[0] - sol.phi(np.array([H_c]))[0])
-    A[-1, -1] -= 0.5 * s2c[0] * ratio / (H_c - c[-1]) / h[-1]
-    q0 = _start_masses(system, kind, value, sol, faces, H_c) / h       # cell densities
+    u, ltau = _log_tau(system, sol, H_c, n_grid)
+    if not ltau[0] < math.log(MAX_TAU):
+        raise InputError(
+            f"{where}: energy = {H_c:g} gives a mean first-passage time of about "
+            f"10^{ltau[0] / math.log(10.0):.0f}, beyond the float range (at most "
+            f"{MAX_TAU:g} is returned); choose a lower energy", where=where, name="energy")
+    tau = _Tau(u, np.exp(ltau), H_c, system)
     mean = float(_mean_from(kind, value, system, tau, sol, H_c))
-    t_end = max(5.0 * mean, max(times) if times is not None and len(times) else 0.0)
+    info: dict[str, Any] = {"n_grid": n_grid, "n_cells": n_cells}
+    t_req = float(requested[-1]) if requested is not None else 0.0
+    t_end = min(max(5.0 * mean, t_req), HORIZON * float(tau.values[0]))
+    t_end = max(t_end, 5.0 * mean)
     T = np.linspace(0.0, t_end, 801)
+    survival = _eigen_survival(system, sol, H_c, n_cells, kind, value, mean, info)
+    if survival is None:
+        def survival(t):
+            return np.exp(-np.asarray(t, float) / mean)
+    R = np.clip(survival(T), 0.0, 1.0)
+    T, R = merge_requested(T, R, requested, exact=survival)
+    return FirstPassage("averaging", system, H_c, (kind, value), mean, 0.0, T,
+                        np.clip(R, 0.0, 1.0), None, info, _mean_at=tau)
+
+
+class _Tau:
+    """τ(H(x, y)) (picklable: no closure)."""
+
+    def __init__(self, u, values, H_c, system) -> None:
+        self.u, self.values, self.H_c, self.system = u, values, H_c, system
+
+    def of_energy(self, H):
+        return np.where(H < self.H_c, np.interp(H, self.u, self.values), 0.0)
+
+    def __call__(self, x, y):
+        return self.of_energy(self.system.energy(x, y))
+
+
+def _eigen_survival(system, sol, H_c, n_cells, kind, value, mean, info):
+    """R(t) = Σ_k c_k e^{λ_k t} of the finite-volume generator with the top face
+    absorbing, or None when the decomposition cannot resolve τ (eps ‖A‖ τ above
+    RESOLVABLE, or an operator that overflows): the caller uses exp(−t/τ)."""
+    info["survival_method"] = "exponential law exp(-t/tau) (quasi-stationary)"
+    with np.errstate(all="ignore"):
+        faces = energy_faces(system, H_c, n_cells)
+        A = averaged_operator(system, faces, sol).toarray()
+        c, h = 0.5 * (faces[1:] + faces[:-1]), np.diff(faces)
+        # the top face absorbs: flux ½ σ² p_s(H_c)/p_s(c_N) p_N / (H_c − c_N)
+        _, _, s2c = coefficients(system, np.array([H_c]))
+        Tf, Tc = (orbit_nodes(system, np.array([x])).period[0] for x in (H_c, c[-1]))
+        ratio = Tf / Tc * np.exp(sol.phi(np.array([c[-1]]))[0] - sol.phi(np.array([H_c]))[0])
+        A[-1, -1] -= 0.5 * s2c[0] * ratio / (H_c - c[-1]) / h[-1]
+    if not np.all(np.isfinite(A)):
+        return None
+    rounding = 1.1e-16 * float(np.abs(A).sum(axis=0).max()) * mean
+    info["rounding_error"] = rounding
+    if rounding > RESOLVABLE:
+        return None
+    q0 = _start_masses(system, kind, value, sol, faces, H_c) / h       # cell densities
     lam, V = linalg.eig(A)
     coef = linalg.solve(V, q0)
-    R = np.real((h @ V) * coef @ np.exp(np.outer(lam, T)))
-    info = {"n_grid": n_grid, "n_cells": n_cells, "tau_fv": float(h @ linalg.solve(-A, q0))}
-    return FirstPassage("averaging", system, H_c, (kind, value), mean, 0.0, T,
-                        np.clip(R, 0.0, 1.0), None, info,
-                        _mean_at=lambda x, y: tau(system.energy(x, y)))
+    w = (h @ V) * coef
+    info["tau_fv"] = float(h @ linalg.solve(-A, q0))
+    info["survival_method"] = "eigen-decomposition of the finite-volume generator"
+    lam_c = np.minimum(lam.real, 0.0) + 1j * lam.imag
+
+    def survival(t):
+        with np.errstate(under="ignore"):
+            return np.real(w @ np.exp(np.outer(lam_c, np.asarray(t, float))))
+    return survival
 
 
 def _mean_from(kind, value, system, tau, sol, H_c) -> float:
     if kind == "point":
-        return tau(float(system.energy(*value)))
+        return tau.of_energy(float(system.energy(*value)))
     if kind == "stationary":
         H = np.linspace(energy_floor(system), H_c, 20001)
         w = sol.pdf_energy(H)
-        return float(np.trapezoid(w * tau(H), H) / np.trapezoid(w, H))
+        return float(np.trapezoid(w * tau.of_energy(H), H) / np.trapezoid(w, H))
     x, y, w = _gauss_hermite(value)
     inside = system.energy(x, y) < H_c
-    return float(np.sum(w[inside] * tau(system.energy(x[inside], y[inside])))
+    return float(np.sum(w[inside] * tau.of_energy(system.energy(x[inside], y[inside])))
                  / np.sum(w[inside]))
 
 

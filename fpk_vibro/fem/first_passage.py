@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
@@ -29,44 +30,86 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import skfem
 
-from .. import scales
-from .._checks import check_int
-from ..first_passage import FirstPassage, check_energy, parse_start
-from ..model import VibroImpactSystem, check_system
+from .. import budget
+from .._checks import InputError, check_int
+from ..budget import Cost
+from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
+                             parse_start, survival_at)
+from ..model import VibroImpactSystem, Wall, check_system
 from .generator import assemble, element_for, quadrature_order
 from .solution import FEMSolution
 
-__all__ = ["first_passage"]
+__all__ = ["first_passage", "safe_set_components", "safe_set_mesh", "RESOLVABLE",
+           "HORIZON"]
 
 
 #: A side without a reached wall ends where Y(x) is this fraction of Y(0)-ish: just
 #: inside the turning point (the cells there stay non-degenerate).
 END_FRACTION = 1e-3
+#: Largest accepted relative error of τ from rounding alone (module docstring).
+RESOLVABLE = 1e-3
+#: The reliability march stops at this many mean times of the slowest start of the
+#: part (R ~ e^-40 there) even if later times are requested; R is read beyond it
+#: with its decay rate.
+HORIZON = 40.0
+#: Machine epsilon, with the growth of the sparse LU (measured: the estimate is
+#: 20-60 times the spread of τ between two orderings of the factorisation).
+_EPS = 1.1e-16
 
 
-def safe_set_mesh(system: VibroImpactSystem, H_c: float, nx: int, ny: int
-                  ) -> tuple[skfem.MeshQuad1, VibroImpactSystem, np.ndarray]:
-    """(mesh of {H < H_c} fitted to its boundary, the system with only the walls H_c
-    reaches, mask of the boundary facets that absorb)."""
-    X = float(scales.reach(system, H_c))
-    ends, walls = [], {}
-    for side, sign in (("left", -1), ("right", +1)):
-        w = getattr(system, side)
-        if w is not None and float(system.potential(w.position)) < H_c:
-            ends.append(w.position)
-            walls[side] = w
-        else:              # the turning point, pulled in so that Y(x_end) > 0
-            A = sign * X
-            ends.append(A - sign * END_FRACTION * X)
-            walls[side] = None
-    if not ends[0] < ends[1]:
-        raise ValueError(f"fem.first_passage: the safe set H < {H_c:g} is empty on the strip")
-    box = (system if (walls["left"], walls["right"]) == (system.left, system.right) else
-           VibroImpactSystem(a=system.a, b=system.b, c=system.c, D1=system.D1, D2=system.D2,
-                             left=walls["left"], right=walls["right"])
-           if any(walls.values()) else
-           VibroImpactSystem(a=system.a, b=system.b, c=system.c, D1=system.D1, D2=system.D2,
-                             barriers="none"))
+@dataclass(frozen=True)
+class _Box:
+    """The system as the assembly sees one part of the safe set: the same
+    coefficients, only the walls the part reaches (no model check: a softening
+    spring cut off before its walls is not a system on its own)."""
+    a: float
+    b: float
+    c: float
+    D1: float
+    D2: float
+    left: Wall | None
+    right: Wall | None
+
+
+def safe_set_components(system: VibroImpactSystem, H_c: float
+                        ) -> list[tuple[float, float, Wall | None, Wall | None]]:
+    """The connected parts of {G(x) < H_c} on the strip, left to right.
+
+    Each is (x_lo, x_hi, left wall or None, right wall or None); a None end is a
+    turning point G = H_c (the roots of the quartic, z = x² from its quadratic).  A
+    double well below its hump has two parts; a softening spring whose walls lie
+    beyond its humps has a part next to each wall.
+    """
+    a, b = system.a, system.b
+    lo, hi = system.x_bounds
+    z = []
+    if b != 0:
+        disc = a * a / 4.0 + b * H_c
+        if disc >= 0:
+            z = [(-a / 2.0 + sgn * math.sqrt(disc)) / (b / 2.0) for sgn in (-1.0, 1.0)]
+    elif a != 0:
+        z = [2.0 * H_c / a]
+    roots = sorted({sgn * math.sqrt(v) for v in z if v >= 0 for sgn in (-1.0, 1.0)})
+    finite = [r for r in roots if lo < r < hi]
+    span = max([abs(r) for r in roots] + [1.0]) + 1.0
+    points = [lo if math.isfinite(lo) else -span, *finite, hi if math.isfinite(hi) else span]
+    out = []
+    for p, q in zip(points[:-1], points[1:]):
+        if q > p and float(system.potential(0.5 * (p + q))) < H_c:
+            out.append((p, q, system.left if p == lo else None,
+                        system.right if q == hi else None))
+    return out
+
+
+def safe_set_mesh(system: VibroImpactSystem, part: tuple, H_c: float, nx: int, ny: int
+                  ) -> tuple[skfem.MeshQuad1, _Box, np.ndarray]:
+    """(mesh of one part of {H < H_c} fitted to its boundary, the system with only the
+    walls the part reaches, mask of the boundary facets that absorb)."""
+    x_lo, x_hi, left, right = part
+    half = 0.5 * (x_hi - x_lo)
+    ends = [x_lo if left is not None else x_lo + END_FRACTION * half,
+            x_hi if right is not None else x_hi - END_FRACTION * half]
+    box = _Box(system.a, system.b, system.c, system.D1, system.D2, left, right)
     xs = np.linspace(ends[0], ends[1], nx + 1)
     eta = np.linspace(-1.0, 1.0, ny + 1)
     mesh = skfem.MeshQuad1.init_tensor(xs, eta)
@@ -74,11 +117,27 @@ def safe_set_mesh(system: VibroImpactSystem, H_c: float, nx: int, ny: int
     mesh = skfem.MeshQuad1(np.vstack([mesh.p[0], mesh.p[1] * Y]), mesh.t)
     mid = mesh.p[:, mesh.facets].mean(axis=1)
     on_wall = np.zeros(mid.shape[1], dtype=bool)
-    for w in (walls["left"], walls["right"]):
+    for w in (left, right):
         if w is not None:
             on_wall |= np.abs(mid[0] - w.position) <= 1e-12 * max(1.0, abs(w.position))
     absorbing = np.isin(np.arange(mesh.facets.shape[1]), mesh.boundary_facets()) & ~on_wall
     return mesh, box, absorbing
+
+
+def estimate(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_steps: int,
+             parts: int = 1) -> Cost:
+    """Memory and time of a call: the stationary solver's cost model
+    (:meth:`fpk_vibro.fem.Options.estimate`, general assembly) for one factorisation
+    per part, two factors alive at once in the reliability march (five in all) and
+    at most 8 n_steps steps of two triangular solves."""
+    from .options import Options
+    one = Options(nx=nx, ny=ny, degree=degree, positivity=False,
+                  assembly="general").estimate(system, "stationary")
+    n = float((degree * nx + 1) * (degree * ny + 1))
+    lu, factor_s = one.memory - 80e6, one.seconds - 0.2
+    steps = 8.0 * n_steps
+    return Cost(80e6 + 2.0 * lu, parts * n * steps, "DOF-steps",
+                0.2 + parts * (5.0 * factor_s + steps * 2.0 * 3e-7 * n), "nx")
 
 
 def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
@@ -96,17 +155,31 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         Where paths start (:func:`fpk_vibro.first_passage.parse_start`); default the
         equilibrium at rest.
     times : sequence of float, optional
-        Times at which R(t) must be known; R is computed on a grid up to the largest
-        of them and 5 τ.
+        Times at which R(t) must be known, in any order
+        (:func:`fpk_vibro.first_passage.check_times`).  R is computed on the solver's
+        own grid, up to 5 τ or the largest requested time but at most
+        :data:`HORIZON` τ, and read at these times.
     nx, ny, degree : int
-        Cells across x and y (ny default 2 nx, even) and the Lagrange degree.
+        Cells across x and y of each part of the safe set (ny default 2 nx, even)
+        and the Lagrange degree.
     n_steps : int
-        BDF2 steps of the reliability march.
+        BDF2 steps of the reliability march per 5 τ (at most 8 n_steps in all).
 
     Returns
     -------
     FirstPassage
-        ``mean_time(x0, y0)`` evaluates τ_h anywhere; ``reliability(t)`` for the start.
+        ``mean_time(x0, y0)`` evaluates τ_h on the parts of the safe set that hold
+        the start; ``reliability(t)`` for the start.  ``info["rounding_error"]``:
+        the estimated relative error of τ from rounding.
+
+    Raises
+    ------
+    InputError
+        For an invalid argument (naming it), a mesh beyond the memory or time
+        budget (:mod:`fpk_vibro.budget`, naming ``nx``), or an energy whose mean
+        time double precision cannot resolve (naming ``energy``, with the estimated
+        magnitude): the rounding error of τ, estimated from the factorisation, above
+        :data:`RESOLVABLE`.
 
     Examples
     --------
@@ -119,42 +192,143 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     check_system(where, system)
     H_c = check_energy(where, system, energy)
     kind, value = parse_start(where, system, start, H_c)
+    requested = check_times(where, times)
     nx = check_int("nx", nx, 2, 4096, where=where)
     ny = check_int("ny", 2 * nx if ny is None else ny, 2, 8192, where=where)
     if ny % 2:
         raise ValueError(f"{where}: ny must be even (y = 0 is a mesh line); got {ny}")
     degree = check_int("degree", degree, 1, 2, where=where)
     n_steps = check_int("n_steps", n_steps, 10, 10 ** 6, where=where)
+    parts = safe_set_components(system, H_c)
+    if not parts:
+        raise ValueError(f"{where}: the safe set H < {H_c:g} is empty on the strip")
+    if kind == "point":
+        parts = [p for p in parts if p[0] <= value[0] <= p[1]][:1]
+    budget.enforce(estimate(system, nx, ny, degree, n_steps, len(parts)), where)
     t0 = time.perf_counter()
-    mesh, box, absorbing = safe_set_mesh(system, H_c, nx, ny)
+    solved = [_solve_part(system, part, H_c, nx, ny, degree, kind, value) for part in parts]
+    solved = [p for p in solved if p["weight"] > 0]
+    if not solved:
+        raise ValueError(f"{where}: the start density has no mass inside the safe set "
+                         f"H < {H_c:g}")
+    total = sum(p["weight"] for p in solved)
+    for p in solved:
+        p["weight"] /= total
+        if p["error"] > RESOLVABLE or not (0 < p["mean"] < math.inf):
+            raise _unresolvable(where, system, H_c, kind, value, p)
+    mean = float(sum(p["weight"] * p["mean"] for p in solved))
+    for p in solved:
+        t_req = float(requested[-1]) if requested is not None else 0.0
+        t_end = min(max(5.0 * p["mean"], t_req), HORIZON * p["tau_max"])
+        p["T"], p["R"] = _survival(p["L"], p["M"], p["mean"], max(t_end, 5.0 * p["mean"]),
+                                   n_steps, p["at_start"])
+    if len(solved) == 1:
+        T, R = solved[0]["T"], solved[0]["R"]
+    else:
+        T = np.unique(np.concatenate([p["T"] for p in solved]))
+        T = T[T <= min(p["T"][-1] for p in solved)]
+        R = sum(p["weight"] * survival_at(p["T"], p["R"], T) for p in solved)
+    T, R = merge_requested(T, R, requested)
+    info = {"nx": nx, "ny": ny, "degree": degree, "parts": len(solved),
+            "ndofs": int(sum(p["ndofs"] for p in solved)),
+            "free_dofs": int(sum(p["free"] for p in solved)),
+            "rounding_error": float(max(p["error"] for p in solved)),
+            "residual": float(max(p["residual"] for p in solved)),
+            "seconds": time.perf_counter() - t0,
+            "x_range": (float(min(p["mesh"].p[0].min() for p in solved)),
+                        float(max(p["mesh"].p[0].max() for p in solved)))}
+    field = _TauField(system, H_c, [(p["tau_h"], p["mesh"], p["part"][:2]) for p in solved])
+    return FirstPassage("fem", system, H_c, (kind, value), mean, 0.0, T, R, None, info,
+                        _mean_at=field)
+
+
+def _solve_part(system, part, H_c, nx, ny, degree, kind, value) -> dict[str, Any]:
+    """τ on one part of the safe set, the start's functional, and the estimated
+    relative rounding error of τ."""
+    mesh, box, absorbing = safe_set_mesh(system, part, H_c, nx, ny)
     basis = skfem.CellBasis(mesh, element_for(mesh, degree), intorder=quadrature_order(degree))
     L, M = assemble(box, basis, only_walls=True)
     unit = np.asarray(M.sum(axis=0)).ravel()
     fixed = basis.get_dofs(np.flatnonzero(absorbing)).all()
     free = np.setdiff1d(np.arange(basis.N), fixed)
     L, M = L[free][:, free], M[free][:, free]
+    lu = spla.splu((-L.T).tocsc(), permc_spec="MMD_AT_PLUS_A")
     tau = np.zeros(basis.N)
-    tau[free] = spla.splu((-L.T).tocsc(), permc_spec="MMD_AT_PLUS_A").solve(unit[free])
-    tau_h = FEMSolution(system, mesh, degree, tau, mass=1.0)
-    # the start as a functional of nodal fields: v(x0, y0), or ∫ v p0 / ∫ p0
+    with np.errstate(all="ignore"):
+        tau[free] = lu.solve(unit[free])
+        # rounding: the slowest mode v of −L_ff (one inverse iteration from 1) is
+        # where the mean time lives; a perturbation eps |L| of the matrix moves its
+        # rate by about eps 1ᵀ|L||v| / unitᵀ|v|, i.e. τ by that times τ.
+        v = np.abs(lu.solve(M @ np.ones(free.size), trans="T"))
+        tau_max = float(np.max(tau[free]))
+        error = _EPS * float(np.ones(free.size) @ (abs(L) @ v)) / float(unit[free] @ v) \
+            * abs(tau_max)
+        # normwise backward error of the solve (a breakdown, not conditioning)
+        residual = float(np.linalg.norm(unit[free] + L.T @ tau[free], np.inf)
+                         / (spla.norm(L, np.inf) * np.linalg.norm(tau[free], np.inf)
+                            + np.linalg.norm(unit[free], np.inf)))
+    if not (np.all(np.isfinite(tau)) and math.isfinite(error)):
+        error = math.inf
+    elif np.min(tau[free]) < -RESOLVABLE * tau_max or residual > 1e-8:
+        error = max(error, 1.0)       # a negative mean time: a solver breakdown
     if kind == "point":
         probe = np.asarray(basis.probes(np.array([[value[0]], [value[1]]])).todense()).ravel()
-        weights = probe[free]
+        weights, weight = probe[free], 1.0
     else:
         p0 = _start_density(system, kind, value, basis.doflocs, H_c)[free]
-        weights = (M @ p0) / (unit[free] @ p0)
+        weight = float(unit[free] @ p0)
+        weights = (M @ p0) / weight if weight > 0 else np.zeros(free.size)
 
-    def at_start(v_free: np.ndarray) -> float:
+    def at_start(v_free: np.ndarray, weights=weights) -> float:
         return float(weights @ v_free)
 
-    mean = at_start(tau[free])
-    t_end = max(5.0 * mean, max(times) if times is not None and len(times) else 0.0)
-    T, R = _survival(L, M, t_end, n_steps, at_start)
-    info = {"nx": nx, "ny": ny, "degree": degree, "ndofs": int(basis.N),
-            "free_dofs": int(free.size), "seconds": time.perf_counter() - t0,
-            "x_range": (float(mesh.p[0].min()), float(mesh.p[0].max()))}
-    return FirstPassage("fem", system, H_c, (kind, value), mean, 0.0, T, R, None, info,
-                        _mean_at=lambda x, y: _tau_at(tau_h, mesh, system, H_c, x, y))
+    return {"part": part, "mesh": mesh, "L": L, "M": M, "ndofs": int(basis.N),
+            "free": int(free.size), "tau_h": FEMSolution(system, mesh, degree, tau, mass=1.0),
+            "mean": at_start(tau[free]), "tau_max": tau_max, "error": error,
+            "residual": residual, "weight": max(weight, 0.0), "at_start": at_start}
+
+
+def _unresolvable(where, system, H_c, kind, value, part) -> InputError:
+    """The one-line refusal of a mean time that double precision cannot resolve."""
+    err, tau_max = part["error"], part["tau_max"]
+    limit = RESOLVABLE / err * tau_max if math.isfinite(err) and err > 0 and tau_max > 0 \
+        else math.nan
+    est = ""
+    try:
+        from ..averaging.first_passage import log10_mean_time
+        H0 = float(system.energy(*value)) if kind == "point" else None
+        est = f"; averaging estimates τ ~ 10^{log10_mean_time(system, H_c, H0):.0f}"
+    except Exception:  # averaging does not apply (e.g. two wells): no estimate
+        pass
+    bound = f"τ is beyond the ~{limit:.1g} this mesh resolves" if limit == limit else \
+        "τ is beyond what this mesh resolves"
+    return InputError(f"{where}: energy = {H_c:g} gives a mean first-passage time that "
+                      f"double precision cannot resolve: rounding alone changes τ by an "
+                      f"estimated {err:.2g} × τ ({bound}{est}); choose a lower energy",
+                      where=where, name="energy")
+
+
+class _TauField:
+    """τ_h(x, y) on the solved parts (picklable: no closure)."""
+
+    def __init__(self, system, H_c, parts) -> None:
+        self.system, self.H_c, self.parts = system, H_c, parts
+
+    def __call__(self, x, y) -> np.ndarray:
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        out = np.zeros(x.shape)
+        inside = self.system.energy(x, y) < self.H_c
+        covered = np.zeros(x.shape, dtype=bool)
+        for tau_h, mesh, (lo, hi) in self.parts:
+            sel = (x >= lo) & (x <= hi)
+            covered |= sel
+            out[sel] = _tau_at(tau_h, mesh, self.system, self.H_c, x[sel], y[sel])
+        if np.any(inside & ~covered):
+            spans = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for _, _, (lo, hi) in self.parts)
+            raise ValueError(f"fem.first_passage: mean_time(x0, y0) is known on the part(s) "
+                             f"of the safe set holding the start (x in {spans}); this point "
+                             "lies in another one")
+        return out
 
 
 def _tau_at(tau_h: FEMSolution, mesh, system, H_c: float, x, y) -> np.ndarray:
@@ -184,20 +358,19 @@ def _start_density(system, kind, value, points, H_c) -> np.ndarray:
     else:
         from . import stationary
         p0 = np.maximum(stationary(system).pdf_joint(x, y), 0.0)
-    p0 = np.where(system.energy(x, y) < H_c, p0, 0.0)
-    if not p0.sum() > 0:
-        raise ValueError("fem.first_passage: the start density has no mass inside the "
-                         f"safe set H < {H_c:g}")
-    return p0
+    return np.where(system.energy(x, y) < H_c, p0, 0.0)
 
 
-def _survival(L: sp.csr_matrix, M: sp.csr_matrix, t_end: float, n_steps: int, at_start
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """R(t_k) on [0, t_end] from M g' = Lᵀ g, g(0) = 1 (BDF2; the first tenth of the
-    quarter of the steps ten times smaller, for the layer at the absorbing boundary)."""
+def _survival(L: sp.csr_matrix, M: sp.csr_matrix, scale: float, t_end: float,
+              n_steps: int, at_start) -> tuple[np.ndarray, np.ndarray]:
+    """R(t_k) on [0, t_end] from M g' = Lᵀ g, g(0) = 1 (BDF2).  The step is set by the
+    mean time ``scale``: 5 scale / n_steps (n_steps/4 steps ten times smaller first,
+    for the layer at the absorbing boundary), widened if t_end needs more than
+    8 n_steps steps."""
     Lt = L.T.tocsc()
-    h1, n1 = t_end / (10 * n_steps), n_steps // 4
-    h2, n2 = t_end / n_steps, n_steps - int(math.ceil(n1 / 10))
+    h2 = max(5.0 * scale / n_steps, t_end / (8 * n_steps))
+    h1, n1 = h2 / 10.0, n_steps // 4
+    n2 = max(1, int(math.ceil((t_end - n1 * h1) / h2 - 1e-9)))
     g_prev, g = None, np.ones(L.shape[0])
     T, R = [0.0], [at_start(g)]
     for h, n in ((h1, n1), (h2, n2)):

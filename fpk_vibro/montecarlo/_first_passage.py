@@ -57,8 +57,8 @@ import numpy as np
 from scipy import stats
 
 from .. import _checks
-from ..first_passage import FirstPassage, check_energy, parse_start
-from ..initial import parse_initial, parse_times
+from ..first_passage import FirstPassage, check_energy, check_times, parse_start
+from ..initial import parse_initial
 from ..model import VibroImpactSystem, check_system
 from . import _fp_kernel as FK
 from . import _kernel as K
@@ -96,13 +96,7 @@ def _check_args(system, energy, start, n_paths, dt, t_max, seed, times, threads,
     out["t_max"] = None if t_max is None else _checks.check_float(
         "t_max", t_max, out["dt"], math.inf, lo_open=False, where=WHERE)
     out["seed"] = None if seed is None else S.check_seed("seed", seed, WHERE)
-    if times is None:
-        out["times"] = None
-    elif isinstance(times, (bool, str, bytes, dict)) or (
-            isinstance(times, (list, tuple)) and any(isinstance(t, bool) for t in times)):
-        raise _checks.invalid(WHERE, "times", "a sequence of finite numbers >= 0", times)
-    else:
-        out["times"] = parse_times(times, WHERE, increasing=False)
+    out["times"] = check_times(WHERE, times)
     out["threads"] = None if threads is None else _checks.check_int(
         "threads", threads, 1, 1024, where=WHERE)
     out["progress"] = None if progress is None else _checks.check_bool(
@@ -143,7 +137,10 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         Same seed → the same numbers for any number of threads; None draws fresh
         entropy (``info["seed_entropy"]``).
     times : sequence of float, optional
-        Times at which R(t) must be known (added to the grid, up to the horizon).
+        Times at which R(t) must be known, in any order
+        (:func:`fpk_vibro.first_passage.check_times`): added to the empirical grid,
+        which runs to the last exit or the horizon (up to the horizon when paths are
+        censored).
     threads : int, optional
         Worker threads; default :func:`numba.get_num_threads`.
     progress : bool or None
@@ -346,11 +343,12 @@ def _summarise(system, H_c, start, T, censored, horizon, times, info, t0) -> Fir
         ci[q] = (float(Ts[lo_k - 1]), float(Ts[hi_k - 1]))
     finite = Ts[np.isfinite(Ts)]
     t_end = horizon if censored.any() else float(finite.max(initial=0.0))
+    # the own grid runs to the last exit (or the horizon); requested times are
+    # added to it (R there is exact too), never stretching it
     grid = np.linspace(0.0, t_end, 501)
     if times is not None:
-        t_end = max(t_end, float(times.max())) if not censored.any() else t_end
-        grid = np.unique(np.concatenate([np.linspace(0.0, t_end, 501),
-                                         times[times <= t_end]]))
+        beyond = times[times > t_end] if not censored.any() else times[:0]
+        grid = np.unique(np.concatenate([grid, times[times <= t_end], beyond]))
     R = (n - np.searchsorted(Ts, grid, side="right")) / n
     eps = math.sqrt(math.log(2.0 / 0.05) / (2.0 * n))
     band = (np.clip(R - eps, 0.0, 1.0), np.clip(R + eps, 0.0, 1.0))
