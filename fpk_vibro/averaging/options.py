@@ -1,6 +1,7 @@
 """The options of the averaging method, declared once (see :mod:`fpk_vibro.options`)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -76,5 +77,15 @@ class Options(_Options):
                           0.01 + 0.02 * nodes / (48 * 24), "n_theta")
         if mode == "stationary":
             return stationary
-        return Cost(100e6 + 64e3 * self.n_cells, self.n_cells, "cells",
-                    stationary.seconds + 0.1 + 4.5e-4 * self.n_cells, "n_cells")
+        # Radau LU steps: ~60 to the first relaxation time, then about one per 4/λ
+        # until the run stops at equilibrium (averaging.transient stops when the
+        # masses are within rtol of it, t ≈ ln(1/rtol)/λ; 2× that bounds it); order
+        # 5: steps ∝ rtol^(-1/5) (measured: docs/costs.md)
+        from ..scales import relaxation_rate
+        lam = relaxation_rate(system)
+        t_end = float(max(times)) if times is not None and len(times) else 0.0
+        t_run = min(t_end, 2.0 * math.log(1.0 / max(self.rtol, 1e-9)) / lam)
+        steps = (60.0 + 0.25 * lam * t_run) * max(0.25, (1e-8 / self.rtol) ** 0.2)
+        return Cost(100e6 + 64e3 * self.n_cells, self.n_cells * steps, "cell-steps",
+                    stationary.seconds + 0.1 + 4.5e-4 * self.n_cells * steps / 60.0,
+                    "n_cells")

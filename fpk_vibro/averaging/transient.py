@@ -183,18 +183,65 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     t_sorted = t_out[order]
     t_end = float(t_sorted[-1])
     if t_end > 0:
-        sol = integrate.solve_ivp(lambda t, p: A @ p, (0.0, t_end), p0, method="Radau",
-                                  t_eval=t_sorted, jac=A, rtol=rtol,
-                                  atol=rtol * 1e-4 * float(p0.max()))
-        if not sol.success:
-            raise RuntimeError(f"averaging.transient: time integration failed: {sol.message}")
-        P = sol.y
+        P = _integrate(A, p0, h, t_sorted, rtol)
     else:
         P = np.repeat(p0[:, None], t_sorted.size, axis=1)
     out: list[EnergyGridSolution] = [None] * t_out.size  # type: ignore[list-item]
     for j, k in enumerate(order):
         out[k] = EnergyGridSolution(system, faces=faces, density=P[:, j], time=float(t_sorted[j]))
     return out
+
+
+def equilibrium(A: sparse.csr_matrix, h: np.ndarray) -> np.ndarray | None:
+    """The operator's discrete equilibrium (zero flux through every face; p_s at the
+    cell centres), normalised to mass 1; None if a face coefficient under- or
+    overflows."""
+    lo, up = A.diagonal(-1) * h[1:], A.diagonal(1) * h[:-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        logp = np.concatenate([[0.0], np.cumsum(np.log(lo) - np.log(up))])
+    if not np.all(np.isfinite(logp)):
+        return None
+    p = np.exp(logp - logp.max())
+    return p / (p @ h)
+
+
+#: L1 distance of the cell masses to equilibrium at which the integration stops.
+SETTLED = 1e-9
+
+
+def _integrate(A: sparse.csr_matrix, p0: np.ndarray, h: np.ndarray, t_sorted: np.ndarray,
+               rtol: float) -> np.ndarray:
+    """p at the (increasing, last > 0) times ``t_sorted``: Radau until the cell masses
+    are within ``max(rtol, SETTLED)`` (L1) of the discrete equilibrium, that
+    equilibrium after.
+
+    ``exp(A t)`` keeps masses non-negative and their sum fixed (A is a generator), so
+    the L1 distance of the masses to the equilibrium never grows: once below that
+    bound it stays there, and every later time is the equilibrium to it.  (Below
+    ~1e-11 the round-off of the integration keeps it from ever getting there.)
+    Without this stop the cost grew with t_end without end (Radau's step stays near
+    a few relaxation times at equilibrium: t_end = 1e12 would take ~1e10 steps).
+    """
+    p_eq = equilibrium(A, h)
+    events = None
+    if p_eq is not None:
+        def settled(t: float, p: np.ndarray) -> float:
+            return float(np.abs(p - p_eq) @ h) - max(rtol, SETTLED)
+        settled.terminal, settled.direction = True, -1   # type: ignore[attr-defined]
+        if settled(0.0, p0) <= 0.0:
+            return np.repeat(p_eq[:, None], t_sorted.size, axis=1)
+        events = settled
+    sol = integrate.solve_ivp(lambda t, p: A @ p, (0.0, float(t_sorted[-1])), p0,
+                              method="Radau", t_eval=t_sorted, jac=A, rtol=rtol,
+                              atol=rtol * 1e-4 * float(p0.max()), events=events)
+    if not sol.success:
+        raise RuntimeError(f"averaging.transient: time integration failed: {sol.message}")
+    P = np.empty((p0.size, t_sorted.size))
+    k = len(sol.t)                     # the times reached before the stop
+    if k:
+        P[:, :k] = sol.y
+    P[:, k:] = p_eq[:, None]
+    return P
 
 
 def _energy_at_phi(st: AveragedSolution, level: float) -> float:
