@@ -47,6 +47,9 @@ AUTO_NEGATIVE_TOL = 1e-6
 #: positivity="auto": cells across x of the positive generator it switches to when
 #: nx is not given (ny = 2 nx); chosen for about 1–2 s per solve.
 AUTO_POSITIVE_NX = 64
+#: Largest c (max G − min G)/D on the strip (the density spans e^this) that the FE
+#: solve is accepted for (measurements: Options._check_wall_layers).
+MAX_CONTRAST = 60.0
 
 
 def _mesh(name: str, value: Any, where: str | None) -> Any:
@@ -179,7 +182,13 @@ class Options(_Options):
             if pos in TENSOR_ONLY:
                 raise bad("positivity", f"= {pos!r} needs the built-in structured "
                           "quadrilateral mesh; use 'upwind' or 'afc' with a mesh")
-            load_strip_mesh(system, mesh, where)
+            m = load_strip_mesh(system, mesh, where)
+            reach = float(abs(m.p[1]).max())
+            if reach < thermal_velocity(system):
+                raise bad("mesh", f"must reach |y| >= the thermal velocity sqrt(D1/λ) = "
+                          f"{thermal_velocity(system):.3g} (as y_max must: below it most "
+                          f"of the density lies outside the strip); got a mesh with "
+                          f"|y| <= {reach:.3g}")
             return
         if self.assembly == "tensor" and self.element != "quad":
             raise bad("assembly", "= 'tensor' needs element = 'quad'")
@@ -190,13 +199,52 @@ class Options(_Options):
             raise bad("y_max", "must be given when c = 0 (no damping bound on the energy "
                       "tail; all dissipation comes from impacts)")
         if self.y_max is not None:
-            from ..scales import energy_scale
-            v = math.sqrt(energy_scale(system))
+            v = thermal_velocity(system)
             if self.y_max < v:
                 raise bad("y_max", f"must be at least the thermal velocity sqrt(D1/λ) = "
                           f"{v:.3g} (below it most of the density lies outside the strip); "
                           f"got {self.y_max!r}")
-        self.grid(system, where)
+        dom, nx, _ = self.grid(system, where)
+        if system.c > 0 and system.has_barrier:
+            self._check_wall_layers(system, dom, nx, bad)
+
+    def _check_wall_layers(self, system: VibroImpactSystem, dom: Any, nx: int, bad: Any) -> None:
+        """Refuse a density pressed against a wall that the FE solve cannot
+        represent: spanning more than e^MAX_CONTRAST over the strip, or in a layer
+        thinner than a node spacing.
+
+        Where the force −G'(x_w) presses into a wall (softening b < 0 beyond the
+        hump, a preloaded wall) the density sits in a layer of width ℓ = D/(c |G'|)
+        against it.  Measured on the exact (r = 1) density, a = 1, c = 0.025,
+        D1 = 0.01, walls ±0.6: E[H] within 0.2 % for h/(degree·ℓ) ≤ 1 (Q2, b = −300),
+        15 % off at 1.7 (b = −500), 99 % at 2.4 (b = −700); with the contrast
+        c (max G − min G)/D = 56 (b = −700) Q1 at h = 0.9 ℓ was within 0.01 %, at
+        80 (b = −1000) every mesh up to nx = 3000 was off by 10–100 % (or singular).
+        """
+        import numpy as np
+        from ..fem.integrals import potential_range
+        layers = wall_layers(system)
+        if not layers:      # (a low-noise peak inside the strip is a question of nx, ny)
+            return
+        x = np.linspace(dom.x0, dom.x1, 4001)
+        g_lo, g_hi = potential_range(system, np.array([dom.x0]), np.array([dom.x1]))
+        D = float(system.noise_intensity(max(abs(dom.x0), abs(dom.x1))))
+        contrast = system.c * float(g_hi[0] - g_lo[0]) / D
+        if contrast > MAX_CONTRAST:
+            G = system.potential(x)
+            raise bad("system", f"must give a density spanning at most e^{MAX_CONTRAST:g} "
+                      f"on the strip for fem, c (max G - min G)/D <= {MAX_CONTRAST:g}; got "
+                      f"{contrast:.3g} (a={system.a}, b={system.b}, c={system.c}: G falls "
+                      f"from {G.max():.3g} to {G.min():.3g} at x = {x[np.argmin(G)]:.3g}; "
+                      "at 80 no mesh up to nx = 3000 came within 10 %)")
+        h = (dom.x1 - dom.x0) / (nx * self.degree)
+        for side, xw, push, ell in layers:
+            if h > ell:
+                need = math.ceil((dom.x1 - dom.x0) / (self.degree * ell))
+                raise bad("nx", f"must be at least {need} here (a node spacing below the "
+                          f"width {ell:.3g} = D/(c |G'|) of the layer the force {push:.3g} "
+                          f"presses against the {side} wall x = {xw:g}; ny need not grow); "
+                          f"got {nx}{'' if self.nx is not None else ' (the default)'}")
 
     def validate_initial(self, system: VibroImpactSystem, init: Any) -> None:
         """The mean of a Gaussian start must lie inside the truncated strip."""
@@ -262,7 +310,9 @@ class Options(_Options):
                 nxp = AUTO_POSITIVE_NX if self.nx is None else self.nx
                 nyp = 2 * nxp if self.ny is None else self.ny
                 seconds += 20 * 3.4e-7 * float((nxp + 1) * (nyp + 1)) ** 1.3
-            return Cost(80e6 + lu, n, "DOFs", seconds, key)
+            # 130 MB: the interpreter with skfem/scipy and the moments' quadrature
+            # (peak RSS 150 MiB at 6 k DOFs, 2 × 2000 cells; 776 MiB at 1e5 × 2)
+            return Cost(130e6 + lu, n, "DOFs", seconds, key)
         from ..scales import period
         t_end = float(max(times)) if times is not None and len(times) else 0.0
         dt = self.dt if self.dt is not None else period(system) / 20.0
@@ -279,6 +329,31 @@ class Options(_Options):
         key = "times" if t_end / dt > 1e7 else key
         return Cost(80e6 + copies * lu, n * steps, "DOF-steps",
                     0.2 + 10 * factor_s + steps * per_step, key)
+
+
+def wall_layers(system: VibroImpactSystem) -> list[tuple[str, float, float, float]]:
+    """(side, x_w, push, ℓ) for each wall the force −G'(x_w) presses the density
+    against (push > 0 towards it), ℓ = D(x_w)/(c·push) the width of the layer there
+    (c > 0; none with c = 0)."""
+    out = []
+    if system.c <= 0:
+        return out
+    for side, sign in (("left", -1), ("right", 1)):
+        w = getattr(system, side)
+        if w is None:
+            continue
+        xw = w.position
+        push = -sign * (system.a * xw + system.b * xw ** 3)
+        if push > 0:
+            out.append((side, xw, push,
+                        float(system.noise_intensity(xw)) / (system.c * push)))
+    return out
+
+
+def thermal_velocity(system: VibroImpactSystem) -> float:
+    """sqrt(D1/λ): the least |y| extent of a truncated strip (``y_max`` or a mesh)."""
+    from ..scales import energy_scale
+    return math.sqrt(energy_scale(system))
 
 
 def load_strip_mesh(system: VibroImpactSystem, mesh: Any, where: str = "fem"):
