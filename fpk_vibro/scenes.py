@@ -187,6 +187,14 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     sweep = {k: v for k, v in clean["sweep"].items() if v is not None}
     if len(sweep) > 2:
         raise SceneError(f"sweep: at most two parameters; got {sorted(sweep)}", name="sweep")
+    given_walls = [f"[barriers.{side}]" for side in ("left", "right") if bar.get(side)]
+    for k in ("delta", "r"):
+        if k in sweep and given_walls:
+            raise SceneError(
+                f"sweep.{k}: must not be swept with explicit walls {' and '.join(given_walls)} "
+                f"(the symmetric shorthand would replace them by walls at ±delta with one r); got "
+                f"sweep.{k} = {show(list(sweep[k]))}; sweep left.position/right.position or "
+                f"left.r/right.r instead", name=f"sweep.{k}")
     n_points = math.prod(len(v) for v in sweep.values()) if sweep else 1
     if n_points > budget.MAX_POINTS and not budget.forced():
         raise SceneError(f"sweep: {n_points} points; the limit is {budget.MAX_POINTS} "
