@@ -136,14 +136,8 @@ class FEMSolution(Solution):
         inside = (x >= self._x0) & (x <= self._x1) & (np.abs(y) <= self.y_max)
         idx = np.flatnonzero(inside)
         if self._tensor is not None:
-            # p = Σ_ij P_ij ψ_i(x) χ_j(y): 1-D probes (linear-time cell search)
-            xb, yb, P = self._tensor_factors()
-            for k in range(0, idx.size, 500_000):
-                part = idx[k:k + 500_000]
-                ix, vx = _rows(xb.probes(x[part][None, :]))
-                iy, vy = _rows(yb.probes(y[part][None, :]))
-                out[part] = np.einsum("na,nb,nab->n", vx, vy,
-                                      P[ix[:, :, None], iy[:, None, :]])
+            # p = Σ_ij P_ij ψ_i(x) χ_j(y): cells by searchsorted, no inverse map
+            out[idx] = self._field()(x[idx], y[idx])
         else:
             # skfem's 2-D element finder costs O(batch²) memory: small batches
             for k in range(0, idx.size, 400):
@@ -156,11 +150,40 @@ class FEMSolution(Solution):
         if self._tensor_cache is None:
             from .generator import assemble_tensor_bases, tensor_index
             xb, yb = assemble_tensor_bases(self._tensor[0], self._tensor[1], self.degree)
-            k = tensor_index(xb, yb, self.basis)
+            k = tensor_index(xb, yb, self._doflocs())
             P = np.zeros(xb.N * yb.N)
             P[k] = self.dofs
             self._tensor_cache = (xb, yb, P.reshape(xb.N, yb.N))
         return self._tensor_cache
+
+    def _doflocs(self):
+        """Something with the ``doflocs`` of :attr:`basis`, without building its
+        quadrature (vertices for degree 1; else a one-point basis)."""
+        from types import SimpleNamespace
+        if self._basis is not None:
+            return self._basis
+        if self.degree == 1:
+            return SimpleNamespace(doflocs=self.mesh.p)
+        from .generator import element_for
+        return skfem.CellBasis(self.mesh, element_for(self.mesh, self.degree), intorder=1)
+
+    def _field(self):
+        """The :class:`~fpk_vibro.fem.tensor_eval.TensorField` of p_h on a tensor
+        mesh (None otherwise): point values, quadrature and level split without the
+        2-D basis."""
+        if self._tensor is None:
+            return None
+        if getattr(self, "_field_cache", None) is None:
+            from .tensor_eval import TensorField
+            self._field_cache = TensorField(*self._tensor_factors())
+        return self._field_cache
+
+    def _split(self, level: float, q: dict[str, Any]) -> np.ndarray:
+        """[[above, below] of p_h, [above, below] of p₊] for the quadrature ``q``
+        (a tensor quadrature's per-cell masses are a (2, x-cells, y-cells) grid)."""
+        if np.ndim(q["element_mass"]) == 3:
+            return self._field().split(self.system, level, q["element_mass"])
+        return integrals.split(self, level, q["element_mass"])
 
     @staticmethod
     def _line_integral(b1: skfem.CellBasis) -> np.ndarray:
@@ -180,7 +203,8 @@ class FEMSolution(Solution):
             inside = (xf >= self._x0) & (xf <= self._x1)
             out = np.zeros(xf.size)
             if inside.any():
-                out[inside] = xb.probes(xf[inside][None, :]) @ (P @ self._line_integral(yb))
+                out[inside] = self._field().line(xb, xb.mesh.p[0], xf[inside],
+                                                 P @ self._line_integral(yb))
             return out.reshape(x.shape)
         nodes, w = self._composite(np.unique(self.mesh.p[1]))
         vals = self._eval(x[..., None], nodes)
@@ -195,7 +219,8 @@ class FEMSolution(Solution):
             inside = np.abs(yf) <= self.y_max
             out = np.zeros(yf.size)
             if inside.any():
-                out[inside] = yb.probes(yf[inside][None, :]) @ (P.T @ self._line_integral(xb))
+                out[inside] = self._field().line(yb, yb.mesh.p[0], yf[inside],
+                                                 P.T @ self._line_integral(xb))
             return out.reshape(y.shape)
         nodes, w = self._composite(np.unique(self.mesh.p[0]))
         vals = self._eval(nodes, y[..., None])
@@ -255,6 +280,8 @@ class FEMSolution(Solution):
         self._resolution = None
 
     def _quadrature(self) -> dict[str, Any]:
+        if self._tensor is not None:         # the same Gauss rule by 1-D contractions
+            return self._field().quadrature()
         return integrals.element_quadrature(self)
 
     def _record(self, q: dict[str, Any]) -> None:
@@ -322,7 +349,7 @@ class FEMSolution(Solution):
         out = {"E_H": 0.5 * m["E_y2"] + 0.5 * s.a * m["E_x2"] + 0.25 * s.b * m["E_x4"],
                "E_x2": m["E_x2"], "E_y2": m["E_y2"], "E_x4": m["E_x4"], "E_y4": m["E_y4"]}
         if s.has_barrier:
-            above, below = integrals.split(self, s.barrier_energy, q["element_mass"])[0 if galerkin else 1]
+            above, below = self._split(s.barrier_energy, q)[0 if galerkin else 1]
             out["P_impact"] = min(max(above / (above + below), 0.0), 1.0)
         return out
 
@@ -358,7 +385,7 @@ class FEMSolution(Solution):
         Cells wholly on one side (by bounds of H on the cell's bounding box) take
         the element rule; the others the cut-cell rule of the module docstring.
         """
-        above, below = integrals.split(self, level, self._quadrature()["element_mass"])[int(positive)]
+        above, below = self._split(level, self._quadrature())[int(positive)]
         return float(above), float(below)
 
     # -- output ------------------------------------------------------------------------
