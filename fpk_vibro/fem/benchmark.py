@@ -6,7 +6,12 @@ max errors against the exact Gibbs density p ∝ exp(−(c/D1) H) (r = 1, D2 = 0
 paper a, b, c, D1, Δ), and the ratio of the straightforward baseline (general
 skfem 2-D assembly + SciPy SuperLU with COLAMD, mesh and basis included) to the
 fast path (Kronecker assembly + SuperLU with nested-dissection ordering for Q1,
-MMD for Q2; the "total" column) measured in the same run.
+MMD for Q2; the "total" column) measured in the same run.  ``wall s`` is the whole
+``stationary`` call (assembly, solve and the power balance it records, which takes
+the moments and the wall traces); ``mom s`` one more ``moments()`` and ``pb s`` one
+more ``power_balance()`` on the solution; ``peak GB`` the process's peak RSS so far.
+The default Q1 levels end at nx = 500, 10⁶ DOFs (issue 23, §5: ≤ 60 s with the
+moments; measured numbers in docs/measurements.md, §Scale).
 
 ``--amg-sizes N …`` instead prints AMG (pyamg AIR-preconditioned GMRES, the
 :func:`fpk_vibro.fem.solve.factorised` / ``solve_stationary`` AMG path) against
@@ -59,6 +64,20 @@ def _run(n: int, degree: int, **kw):
     wall = time.perf_counter() - t0
     L1, emax = exact_errors(sol)
     return sol, wall, L1, emax
+
+
+def _derived_seconds(sol) -> tuple[float, float]:
+    """(seconds of ``sol.moments()``, of ``sol.power_balance()``)."""
+    t0 = time.perf_counter()
+    sol.moments()
+    t1 = time.perf_counter()
+    sol.power_balance()
+    return t1 - t0, time.perf_counter() - t1
+
+
+def _peak_gb() -> float:
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
 def baseline(n: int, degree: int) -> tuple[float, np.ndarray]:
@@ -205,13 +224,15 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         args.q1, args.q2, args.baseline_max = [16, 32, 64], [8, 16, 32], 20_000
     head = (f"{'deg':>3} {'nx':>4} {'DOFs':>9} {'solver':>10} {'asm s':>7} {'solve s':>8} "
-            f"{'total s':>8} {'L1 err':>9} {'max err':>9} {'mass-1':>9} {'base s':>8} {'ratio':>6}")
+            f"{'total s':>8} {'wall s':>7} {'mom s':>6} {'pb s':>6} {'L1 err':>9} "
+            f"{'max err':>9} {'mass-1':>9} {'base s':>8} {'ratio':>6} {'peak GB':>7}")
     print(f"exact case: {EXACT_SYSTEM}")
     print(head)
     print("-" * len(head))
     for degree, levels in ((1, args.q1), (2, args.q2)):
         for n in levels:
-            sol, _, L1, emax = _run(n, degree)
+            sol, wall, L1, emax = _run(n, degree)
+            mom, pb = _derived_seconds(sol)
             i = sol.info
             tot = i["assembly_seconds"] + i["solve_seconds"]
             base, ratio = "", ""
@@ -222,7 +243,8 @@ def main(argv: list[str] | None = None) -> int:
                 base, ratio = f"{bt:8.2f}", f"{bt / tot:6.1f}"
             print(f"{degree:>3} {n:>4} {sol.dofs.size:>9} {i['ordering'][:10]:>10} "
                   f"{i['assembly_seconds']:7.2f} {i['solve_seconds']:8.2f} {tot:8.2f} "
-                  f"{L1:9.2e} {emax:9.2e} {sol.mass - 1:9.1e} {base:>8} {ratio:>6}", flush=True)
+                  f"{wall:7.2f} {mom:6.2f} {pb:6.2f} {L1:9.2e} {emax:9.2e} "
+                  f"{sol.mass - 1:9.1e} {base:>8} {ratio:>6} {_peak_gb():7.2f}", flush=True)
         if args.amg and levels:
             n = levels[0]
             for solver in ("amg", "amg-sa"):
