@@ -79,7 +79,7 @@ def test_only_active_terms():
 
 
 @pytest.mark.parametrize("kwargs, name", [
-    (dict(degree=3), "degree"), (dict(solver="lu"), "solver"), (dict(nx=0), "nx"),
+    (dict(degree=5), "degree"), (dict(solver="lu"), "solver"), (dict(nx=0), "nx"),
     (dict(ny=7), "ny"), (dict(y_max=-1.0), "y_max"), (dict(y_max=float("nan")), "y_max"),
     (dict(element="hex"), "element"), (dict(grading=-1.0), "grading"),
     (dict(positivity="yes"), "positivity"), (dict(positivity=True, degree=2), "positivity"),

@@ -76,7 +76,7 @@ BAD = [
     ("missing study", GOOD.split("[study]")[0], "[study]", "missing"),
     ("negative time", GOOD.replace('quantities =', 'times = [1.0, -2.0]\nquantities ='), "study.times[1]", ">="),
     ("transient without initial", GOOD.replace('quantities =', 'times = [1.0]\nquantities ='), "initial.mean", "initial"),
-    ("fem degree 3", GOOD + "\n[fem]\ndegree = 3\n", "fem.degree", "[1, 2]"),
+    ("fem degree 5", GOOD + "\n[fem]\ndegree = 5\n", "fem.degree", "[1, 4]"),
     ("fem nx float", GOOD + "\n[fem]\nnx = 10.5\n", "fem.nx", "integer"),
     ("mc paths zero", GOOD + "\n[montecarlo]\nn_paths = 0\n", "montecarlo.n_paths", "[2"),
     ("unknown solver", GOOD + '\n[fem]\nsolver = "lu"\n', "fem.solver", "auto"),

@@ -210,7 +210,7 @@ ANY_KIND = {   # name -> (make, part of the expected message); made from the FE 
     "directory": (directory, "is a directory"),
     "missing_path": (missing, "no such file"),
     "fifo": (fifo, "not a regular file"),
-    "fem_degree_3": (edit_json("meta", lambda m: m.update(degree=3)), "meta['degree']"),
+    "fem_degree_5": (edit_json("meta", lambda m: m.update(degree=5)), "meta['degree']"),
     "fem_cell_hex": (edit_json("meta", lambda m: m.update(cell="hex")), "meta['cell']"),
     "fem_tensor_text": (edit_json("meta", lambda m: m.update(tensor="yes")), "meta['tensor']"),
     "fem_mass_zero": (edit_json("meta", lambda m: m.update(mass=0.0)), "meta['mass']"),

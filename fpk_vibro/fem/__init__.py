@@ -55,8 +55,11 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     y_max : float, optional
         Truncation |y| < y_max; default from the energy tail (mass beyond < 1e-8,
         :func:`fpk_vibro.fem.mesh.domain`, :mod:`fpk_vibro.scales`).
-    degree : {1, 2}
-        Q1/P1 or Q2/P2 Lagrange elements.
+    degree : {1, 2, 3, 4}
+        Q1/P1 or Q2/P2 Lagrange elements; 3, 4: Q3/Q4 on the structured quad mesh
+        with tensor assembly only (:mod:`fpk_vibro.fem.highorder`; default nx 32,
+        24).  Measured L1 orders on the exact case: Q3 4, Q4 5 falling to 4
+        (docs/measurements.md, §Degrees 3 and 4).
     solver : {"auto", "direct", "amg", "amg-sa"}
         See :mod:`fpk_vibro.fem.solve`.
     element : {"quad", "tri"}

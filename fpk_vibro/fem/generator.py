@@ -236,9 +236,14 @@ def kron_sum(terms: list[tuple[sp.spmatrix, sp.spmatrix]]) -> sp.csr_matrix:
 
 def assemble_tensor_bases(xnodes: np.ndarray, ynodes: np.ndarray, degree: int
                           ) -> tuple[skfem.CellBasis, skfem.CellBasis]:
-    """The 1-D Lagrange bases (degree 1 or 2) on the x- and y-nodes."""
+    """The 1-D Lagrange bases on the x- and y-nodes: skfem's P1/P2, and for degree
+    3 or 4 the nodal Gauss–Lobatto element of :mod:`fpk_vibro.fem.highorder`."""
     q = quadrature_order(degree)
-    e1 = {1: skfem.ElementLineP1(), 2: skfem.ElementLineP2()}[degree]
+    if degree >= 3:
+        from .highorder import ElementLineGLL
+        e1 = ElementLineGLL(degree)
+    else:
+        e1 = {1: skfem.ElementLineP1(), 2: skfem.ElementLineP2()}[degree]
     bx = skfem.CellBasis(skfem.MeshLine(np.asarray(xnodes, float)), e1, intorder=q)
     by = skfem.CellBasis(skfem.MeshLine(np.asarray(ynodes, float)), e1, intorder=q)
     return bx, by

@@ -40,8 +40,9 @@ SOLVERS = ("auto", "direct", "amg", "amg-sa")
 POSITIVITY = (False, True, "auto", "quick", "van-albada", "first-order", "upwind", "afc")
 TENSOR_ONLY = (True, "quick", "van-albada", "first-order")
 SCHEMES = ("bdf2", "theta", "euler")
-#: Default number of cells across the strip in x, per degree.
-DEFAULT_NX = {1: 128, 2: 48}
+#: Default number of cells across the strip in x, per degree (degrees 3 and 4:
+#: the structured tensor mesh only; about the DOFs of Q2 at nx = 48).
+DEFAULT_NX = {1: 128, 2: 48, 3: 32, 4: 24}
 #: positivity="auto": the Galerkin density is accepted when min p ≥ −tol·max p.
 AUTO_NEGATIVE_TOL = 1e-6
 #: positivity="auto": cells across x of the positive generator it switches to when
@@ -87,7 +88,7 @@ class Options(_Options):
                        check=_mesh, allowed="a mesh file", scene="file", reduced="drop",
                        auto="a structured mesh of nx × ny cells")
     nx: int | None = option(None, "cells across x", "int", lo=2, hi=10 ** 6, reduced=24,
-                            auto="128 (degree 1) or 48 (degree 2)")
+                            auto="128, 48, 32, 24 for degree 1, 2, 3, 4")
     ny: int | None = option(None, "cells across y (even: y = 0 is a mesh line)", "int",
                             lo=2, hi=10 ** 6, even=True, reduced=32,
                             auto="h_y ≈ 1.5 h_x, at most 4 nx")
@@ -95,8 +96,9 @@ class Options(_Options):
                                  lo_open=True, unit="m/s",
                                  auto="the energy-tail rule of fpk_vibro.scales (mass "
                                       "beyond < 1e-8)")
-    degree: int | None = option(PerMode(1, None), "Lagrange degree: 1 (Q1/P1) or 2 (Q2/P2)",
-                                "int", lo=1, hi=2,
+    degree: int | None = option(PerMode(1, None), "Lagrange degree: 1 (Q1/P1), 2 (Q2/P2); "
+                                "3 or 4 (Q3/Q4, the structured quad mesh with tensor "
+                                "assembly)", "int", lo=1, hi=4,
                                 auto="2, or 1 with positivity")
     solver: str = option("auto", "linear solver of the stationary system", "choice",
                          choices=SOLVERS, modes=S)
@@ -172,6 +174,11 @@ class Options(_Options):
                               f"({disc.positivity!r}); build it with discretise(..., "
                               "positivity=...)")
                 return
+        if self.degree > 2 and (mesh is not None or self.element != "quad"
+                                or self.assembly == "general"):
+            raise bad("degree", f"= {self.degree} needs the structured quadrilateral mesh "
+                      "with tensor assembly (no mesh, element = 'quad', assembly 'auto' or "
+                      "'tensor'); degree 1 or 2 serve meshes and triangles")
         if mesh is not None:
             for name in ("nx", "ny", "y_max"):
                 if getattr(self, name) is not None:

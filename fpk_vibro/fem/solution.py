@@ -108,7 +108,11 @@ class FEMSolution(Solution):
 
     @property
     def basis(self) -> skfem.CellBasis:
-        """The Lagrange basis of p_h (built on first use; quadrature 2k + 3)."""
+        """The Lagrange basis of p_h (built on first use; quadrature 2k + 3).
+        Degrees 3 and 4 have none (a tensor density: :mod:`fpk_vibro.fem.highorder`)."""
+        if self.degree > 2:
+            raise AttributeError(f"a degree-{self.degree} FEMSolution is a tensor density "
+                                 "without a 2-D skfem basis (fpk_vibro.fem.highorder)")
         if self._basis is None:
             from .generator import element_for, quadrature_order
             self._basis = skfem.CellBasis(self.mesh, element_for(self.mesh, self.degree),
@@ -118,6 +122,9 @@ class FEMSolution(Solution):
     @property
     def mass(self) -> float:
         """∫ p_h over the strip (1 to round-off after normalisation)."""
+        if self._mass is None and self.degree > 2:
+            xb, yb, P = self._tensor_factors()
+            self._mass = float(self._line_integral(xb) @ P @ self._line_integral(yb))
         if self._mass is None:
             self._mass = float(skfem.asm(Functional(lambda w: w.f), self.basis,
                                          f=self.basis.interpolate(self.dofs)))
@@ -150,6 +157,9 @@ class FEMSolution(Solution):
         if self._tensor_cache is None:
             from .generator import assemble_tensor_bases, tensor_index
             xb, yb = assemble_tensor_bases(self._tensor[0], self._tensor[1], self.degree)
+            if self.degree > 2:          # the DOFs are the Kronecker coefficients
+                self._tensor_cache = (xb, yb, self.dofs.reshape(xb.N, yb.N))
+                return self._tensor_cache
             k = tensor_index(xb, yb, self._doflocs())
             P = np.zeros(xb.N * yb.N)
             P[k] = self.dofs
@@ -406,7 +416,9 @@ class FEMSolution(Solution):
             raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
                           "meshio writes (.vtu, .xdmf, .vtk, ...)", str(path))
         from skfem.io.meshio import to_meshio
-        out = to_meshio(self.mesh, point_data={"p": self.dofs[self.basis.nodal_dofs[0]]})
+        vertex = (self._eval(*self.mesh.p) if self.degree > 2
+                  else self.dofs[self.basis.nodal_dofs[0]])
+        out = to_meshio(self.mesh, point_data={"p": vertex})
         out.points = np.column_stack([out.points, np.zeros(len(out.points))])
         from ..io import atomic_files
         try:
@@ -452,7 +464,11 @@ class FEMSolution(Solution):
         """DOF count of the degree on this mesh (Q2: + edges + cells, P2: + edges)."""
         t, n = arrays["mesh_t"], arrays["mesh_p"].shape[1]
         want = n
-        if meta["degree"] == 2:
+        if meta["degree"] > 2 and meta["tensor"]:    # Q3/Q4: (k nx + 1)(k ny + 1)
+            k = meta["degree"]
+            want = ((k * (arrays["xnodes"].size - 1) + 1)
+                    * (k * (arrays["ynodes"].size - 1) + 1))
+        elif meta["degree"] == 2:
             u, v = t.ravel(), np.roll(t, -1, axis=0).ravel()          # the cells' edges
             key = np.sort(np.minimum(u, v) * n + np.maximum(u, v))
             edges = int(key.size > 0) + np.count_nonzero(np.diff(key))

@@ -142,10 +142,11 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     scheme : {"bdf2", "theta", "euler"}, optional
         Default "bdf2"; with ``positivity`` only "euler" (or "theta" with θ = 1),
         which is the default then.
-    degree : {1, 2}, optional
+    degree : {1, 2, 3, 4}, optional
         Default 2 (Q2, nx = 48), or 1 with ``positivity``: on the paper packet Q2
         reaches 0.03 % in about a third of the time Q1 (nx = 128) needs for 0.05 %
-        (docs/fem_transient.md).
+        (docs/fem_transient.md).  3 and 4 (Q3/Q4) on the structured quad mesh only,
+        as in :func:`fpk_vibro.fem.stationary`.
     nx, ny, mesh, y_max, element, grading
         As in :func:`fpk_vibro.fem.stationary`.
     theta : float
