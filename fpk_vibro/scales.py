@@ -21,6 +21,7 @@ less than ``mass``.  For r = 1, D2 = 0 both are the exact Gibbs tail.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 from typing import Any
@@ -147,6 +148,15 @@ def reach(system: VibroImpactSystem, H: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(A), np.minimum(A, wall), wall)
 
 
+@functools.lru_cache(maxsize=1)
+def _gauss_400() -> tuple[np.ndarray, np.ndarray]:
+    """The 400-point Gauss–Legendre rule, computed once (an eigenvalue problem of
+    400 × 400: ~10 ms, 40 % of a 6 000-DOF FE solve's time, three times per solve)."""
+    t, w = np.polynomial.legendre.leggauss(400)
+    t.flags.writeable = w.flags.writeable = False
+    return t, w
+
+
 def _bound_density(system: VibroImpactSystem, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rate 1/T(H), dS/dH) of the tail bound on the energies ``H`` (module docstring)."""
     from .orbits import energy_loss, orbit_nodes, single_well
@@ -164,7 +174,7 @@ def _bound_density(system: VibroImpactSystem, H: np.ndarray) -> tuple[np.ndarray
     lo, hi = system.x_bounds
     X = float(reach(system, H[-1]))
     x0, x1 = max(lo, -X), min(hi, X)
-    t, w = np.polynomial.legendre.leggauss(400)
+    t, w = _gauss_400()
     x = 0.5 * (x0 + x1) + 0.5 * (x1 - x0) * t
     kin = np.maximum(H[:, None] - system.potential(x)[None, :], 0.0)
     S = (2.0 * np.sqrt(2.0 * kin)) @ (0.5 * (x1 - x0) * w)
