@@ -37,7 +37,8 @@ TARGET_SECONDS = 0.3
 
 #: (degree, nx, y_max) measured by default (y_max None: the default tail rule, 4.20).
 CONFIGS = [(2, 48, None), (2, 128, None), (3, 24, None), (3, 32, None), (3, 40, None),
-           (4, 16, None), (4, 20, None), (4, 24, None), (4, 28, None), (4, 32, None)]
+           (4, 16, None), (4, 20, None), (4, 22, None), (4, 24, None), (4, 28, None),
+           (4, 32, None)]
 
 
 def exact(x, y):
