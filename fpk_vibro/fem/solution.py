@@ -2,7 +2,12 @@
 
 How the derived quantities are computed from the FE function p_h(x, y):
 
-- ``pdf_joint``: p_h evaluated by ``Basis.probes`` (zero outside the strip).
+- ``pdf_joint``: p_h at points (zero outside the strip).  On the structured tensor
+  mesh (the default) by :mod:`fpk_vibro.fem.tensor_eval`: the cell by
+  ``np.searchsorted`` in the x- and y-nodes and the 1-D bases there, no 2-D basis
+  and no inverse map, so every evaluation, the moments and the power balance
+  below cost O(DOFs) (10⁶ DOFs: moments 0.3 s; docs/measurements.md, §Scale).
+  On other meshes (mesh files, triangles, general assembly) by ``Basis.probes``.
 - ``pdf_x``, ``pdf_y``: on a tensor-product quadrilateral mesh exactly,
   p(x) = Σ_i ψ_i(x) Σ_j P_ij ∫χ_j dy (and likewise in y); on other meshes by a
   composite Gauss rule across the strip split at the mesh's node coordinates.
@@ -16,7 +21,8 @@ How the derived quantities are computed from the FE function p_h(x, y):
   [−π/2, π/2] inside the strip; Gauss–Legendre in θ.  Needs a monotone G on each
   side (a > 0); otherwise NotImplementedError.
 - ``moments``: E[x²], ..., E[y⁴] are functionals of p_h by the element quadrature
-  (order 2k + 3: exact for the weights x⁴, y⁴ times Q_k / P_k), divided by ∫ p_h;
+  (order 2k + 3: exact for the weights x⁴, y⁴ times Q_k / P_k; on the tensor mesh
+  the same tensor Gauss rule by 1-D contractions), divided by ∫ p_h;
   where one of them would be negative (a mesh far too coarse), of
   p₊ = max(p_h, 0) instead (:meth:`FEMSolution.moments` says why).
   ``P_impact = ∫_{H > G(Δ)} p_h / ∫ p_h`` over the mesh itself, cells cut by the
