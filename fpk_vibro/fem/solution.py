@@ -54,24 +54,6 @@ _NTHETA = 96
 RESOLUTION_TOL = 1e-3
 
 
-def _rows(P) -> tuple[np.ndarray, np.ndarray]:
-    """Column indices and values of a probe matrix with equally many entries per row."""
-    P = P.tocsr()
-    n = P.shape[0]
-    w = P.indptr[1] - P.indptr[0] if n else 0
-    if n and not np.all(np.diff(P.indptr) == w):      # merged duplicates: pad
-        coo = P.tocoo()
-        cnt = np.diff(P.indptr)
-        w = int(cnt.max())
-        slot = np.arange(P.nnz) - np.repeat(P.indptr[:-1], cnt)
-        cols = np.zeros((n, w), dtype=np.int64)
-        vals = np.zeros((n, w))
-        cols[coo.row, slot] = P.indices
-        vals[coo.row, slot] = P.data
-        return cols, vals
-    return P.indices.reshape(n, w), P.data.reshape(n, w)
-
-
 class FEMSolution(Solution):
     """Stationary FE density on a mesh of the strip (docs/theory.md, §FPK on the strip).
 

@@ -49,7 +49,8 @@ class TensorField:
     Parameters
     ----------
     xbasis, ybasis : skfem.CellBasis
-        The 1-D bases on the x- and y-nodes (:func:`~fpk_vibro.fem.generator.assemble_tensor_bases`).
+        The 1-D bases on the x- and y-nodes
+        (:func:`~fpk_vibro.fem.generator.assemble_tensor_bases`).
     P : ndarray, shape (xbasis.N, ybasis.N)
         The DOF values in the 1-D bases' numbering.
     """
