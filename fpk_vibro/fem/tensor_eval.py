@@ -172,7 +172,7 @@ class TensorField:
         return whole + self.cut(system, ci, cj, level)
 
     def cut(self, system, ci: np.ndarray, cj: np.ndarray, level: float,
-            chunk: int = 20_000) -> np.ndarray:
+            chunk: int = 2_000) -> np.ndarray:
         """:func:`fpk_vibro.fem.integrals.cut_integrals` over the rectangles (ci, cj)."""
         total = np.zeros((2, 2))
         if ci.size == 0:
