@@ -49,7 +49,7 @@ import scipy.sparse.linalg as spla
 import skfem
 
 from .. import budget
-from .._checks import InputError, check_int
+from .._checks import InputError, check_float, check_int
 from ..budget import Cost
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
                              parse_start, survival_at)
@@ -58,7 +58,7 @@ from .generator import assemble, element_for, quadrature_order
 from .solution import FEMSolution
 
 __all__ = ["first_passage", "safe_set_components", "safe_set_mesh", "RESOLVABLE",
-           "HORIZON"]
+           "HORIZON", "DEFAULT_NX", "MAX_NX"]
 
 
 #: A side without a reached wall ends where Y(x) is this fraction of Y(0)-ish: just
@@ -70,6 +70,10 @@ RESOLVABLE = 1e-3
 #: part (R ~ e^-40 there) even if later times are requested; R is read beyond it
 #: with its decay rate.
 HORIZON = 40.0
+#: A τ_h below −NEGATIVE τ_max is a breakdown.  Milder undershoots are the
+#: discretisation's (Q2 next to a turning point on coarse meshes: −3 % at nx = 8, one
+#: wall at 0.6 and H_c = 0.25) and are measured by the two-level error estimate.
+NEGATIVE = 0.1
 #: Machine epsilon, with the growth of the sparse LU (measured: the estimate is
 #: 20-60 times the spread of τ between two orderings of the factorisation).
 _EPS = 1.1e-16
@@ -119,20 +123,112 @@ def safe_set_components(system: VibroImpactSystem, H_c: float
     return out
 
 
-def safe_set_mesh(system: VibroImpactSystem, part: tuple, H_c: float, nx: int, ny: int
-                  ) -> tuple[skfem.MeshQuad1, _Box, np.ndarray]:
+def _grading(part) -> str:
+    """Which ends of a part are turning points: "both", "left", "right" or "none"."""
+    tl, tr = part[2] is None, part[3] is None
+    return "both" if tl and tr else "left" if tl else "right" if tr else "none"
+
+
+def _u_of_s(kind: str, s: np.ndarray) -> np.ndarray:
+    """The x-grading on [0, 1]: quadratic (x_A − x ∝ (1 − s)²) toward each turning
+    point, so that Y(x) ∝ sqrt(x_A − x) is linear in s there."""
+    if kind == "both":
+        return 0.5 - 0.5 * np.cos(np.pi * s)
+    if kind == "right":
+        return np.sin(0.5 * np.pi * s)
+    if kind == "left":
+        return 1.0 - np.cos(0.5 * np.pi * s)
+    return s
+
+
+def _s_of_u(kind: str, u: np.ndarray) -> np.ndarray:
+    u = np.clip(u, 0.0, 1.0)
+    if kind == "both":
+        return np.arccos(1.0 - 2.0 * u) / np.pi
+    if kind == "right":
+        return 2.0 * np.arcsin(u) / np.pi
+    if kind == "left":
+        return 2.0 * np.arccos(1.0 - u) / np.pi
+    return u
+
+
+class _SafeSetMap:
+    """(s, η) ∈ [0, 1] × [−1, 1] ↦ (x(s), η Y(x(s))) and back: the fitted mesh is the
+    image of a uniform nx × ny grid, so a point's cell is found in (s, η)."""
+
+    def __init__(self, system, H_c, ends, kind, nx, ny, cells_param):
+        self.system, self.H_c, self.ends, self.kind = system, H_c, ends, kind
+        self.nx, self.ny = nx, ny
+        i = np.rint(cells_param[0].min(axis=0) * nx).astype(int)
+        j = np.rint((cells_param[1].min(axis=0) + 1.0) * 0.5 * ny).astype(int)
+        self.table = np.full((nx, ny), -1, dtype=np.int64)
+        self.table[i, j] = np.arange(i.size)
+
+    def x(self, s):
+        a, b = self.ends
+        return np.where(s >= 1.0, b, np.where(s <= 0.0, a, a + (b - a) * _u_of_s(self.kind, s)))
+
+    def Y(self, x):
+        return np.sqrt(2.0 * np.maximum(self.H_c - self.system.potential(x), 0.0))
+
+    def find(self, x, y):
+        a, b = self.ends
+        s = _s_of_u(self.kind, (np.asarray(x, float) - a) / (b - a))
+        Y = self.Y(x)
+        eta = np.clip(np.divide(y, Y, out=np.zeros_like(Y), where=Y > 0), -1.0, 1.0)
+        i = np.clip(np.floor(s * self.nx).astype(int), 0, self.nx - 1)
+        j = np.clip(np.floor((eta + 1.0) * 0.5 * self.ny).astype(int), 0, self.ny - 1)
+        return self.table[i, j]
+
+
+class _CurvedQuad(skfem.MeshQuad2):
+    """The isoparametric (9-node) safe-set mesh: edge and centre nodes on the mapped
+    grid, so that the absorbing boundary H = H_c is followed to third order (with
+    straight edges τ converged at second order whatever the degree: the geometry
+    error).  Points are located through the (s, η) grid (skfem has no element
+    finder for quadratic meshes)."""
+
+    _map: "_SafeSetMap | None" = None
+
+    def element_finder(self, mapping=None):
+        safe_map = self._map
+        return lambda x, y: safe_map.find(x, y)
+
+
+def safe_set_mesh(system: VibroImpactSystem, part: tuple, H_c: float, nx: int, ny: int,
+                  degree: int = 1) -> tuple[skfem.MeshQuad1, _Box, np.ndarray]:
     """(mesh of one part of {H < H_c} fitted to its boundary, the system with only the
-    walls the part reaches, mask of the boundary facets that absorb)."""
+    walls the part reaches, mask of the boundary facets that absorb).
+
+    Nodes (x(s_i), η_j Y(x(s_i))) for uniform s_i ∈ [0, 1], η_j ∈ [−1, 1], with x(s)
+    graded quadratically toward turning points (:func:`_u_of_s`); for degree 2 the
+    mesh is isoparametric (:class:`_CurvedQuad`).  Why: on a uniform x grid Y ∝
+    sqrt(x_A − x) is not resolved near a turning point x_A and the straight edges cut
+    the curved boundary, and τ converged erratically at second order at best (paper
+    system c = 0.2, H_c = 0.15, Q2: 38.30, 38.22, 38.12, 38.086 for nx = 12 … 96
+    against 38.0765); graded and curved: 38.094, 38.0817, 38.0787, 38.0774 for
+    nx = 8 … 64 (docs/measurements.md §First passage).
+    """
     x_lo, x_hi, left, right = part
     half = 0.5 * (x_hi - x_lo)
-    ends = [x_lo if left is not None else x_lo + END_FRACTION * half,
-            x_hi if right is not None else x_hi - END_FRACTION * half]
+    ends = (x_lo if left is not None else x_lo + END_FRACTION * half,
+            x_hi if right is not None else x_hi - END_FRACTION * half)
     box = _Box(system.a, system.b, system.c, system.D1, system.D2, left, right)
-    xs = np.linspace(ends[0], ends[1], nx + 1)
-    eta = np.linspace(-1.0, 1.0, ny + 1)
-    mesh = skfem.MeshQuad1.init_tensor(xs, eta)
-    Y = np.sqrt(2.0 * np.maximum(H_c - system.potential(mesh.p[0]), 0.0))
-    mesh = skfem.MeshQuad1(np.vstack([mesh.p[0], mesh.p[1] * Y]), mesh.t)
+    param = skfem.MeshQuad1.init_tensor(np.linspace(0.0, 1.0, nx + 1),
+                                        np.linspace(-1.0, 1.0, ny + 1))
+    safe_map = _SafeSetMap(system, H_c, ends, _grading(part), nx, ny, param.p[:, param.t])
+    if degree >= 2:
+        param = skfem.MeshQuad2.from_mesh(param)
+        P = param.doflocs
+    else:
+        P = param.p
+    X = safe_map.x(P[0])
+    pts = np.ascontiguousarray(np.vstack([X, P[1] * safe_map.Y(X)]))
+    if degree >= 2:
+        mesh = _CurvedQuad(pts, np.ascontiguousarray(param.t))
+        object.__setattr__(mesh, "_map", safe_map)
+    else:
+        mesh = skfem.MeshQuad1(pts, np.ascontiguousarray(param.t))
     mid = mesh.p[:, mesh.facets].mean(axis=1)
     on_wall = np.zeros(mid.shape[1], dtype=bool)
     for w in (left, right):
@@ -159,9 +255,9 @@ def estimate(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_steps: 
 
 
 def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
-                  times: Sequence[float] | None = None, nx: int = 24,
-                  ny: int | None = None, degree: int = 2, n_steps: int = 200
-                  ) -> FirstPassage:
+                  times: Sequence[float] | None = None, nx: int | None = None,
+                  ny: int | None = None, degree: int = 2, n_steps: int = 200,
+                  rtol: float | None = None) -> FirstPassage:
     """Mean first-passage time τ(x, y) and reliability R(t) out of {H < energy}.
 
     Parameters
@@ -178,17 +274,26 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         own grid, up to 5 τ or the largest requested time but at most
         :data:`HORIZON` τ, and read at these times.
     nx, ny, degree : int
-        Cells across x and y of each part of the safe set (ny default 2 nx, even)
-        and the Lagrange degree.
+        Cells across x and y of each part of the safe set (nx default
+        :data:`DEFAULT_NX`; ny default 2 nx, even) and the Lagrange degree (2: the
+        isoparametric mesh of :func:`safe_set_mesh`).  With ``rtol`` nx is where the
+        refinement starts.
     n_steps : int
         BDF2 steps of the reliability march per 5 τ (at most 8 n_steps in all).
+    rtol : float, optional
+        Target of the error estimate: nx (and ny, n_steps) are doubled, up to
+        :data:`MAX_NX`, until both ``error_estimate()["mean_time"]`` and
+        ``["reliability"]`` are at most rtol.  A target the budget or MAX_NX does not
+        allow is reported by a warning and ``info["rtol_met"] = False``.
 
     Returns
     -------
     FirstPassage
         ``mean_time(x0, y0)`` evaluates τ_h on the parts of the safe set that hold
         the start; ``reliability(t)`` for the start.  ``info["rounding_error"]``:
-        the estimated relative error of τ from rounding.
+        the estimated relative error of τ from rounding.  ``error_estimate()``: the
+        two-level estimate (:func:`_two_level`): the same problem is solved with
+        nx/2, ny/2 and n_steps/2.
 
     Raises
     ------
@@ -211,12 +316,14 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     H_c = check_energy(where, system, energy)
     kind, value = parse_start(where, system, start, H_c)
     requested = check_times(where, times)
-    nx = check_int("nx", nx, 2, 4096, where=where)
+    nx = check_int("nx", DEFAULT_NX if nx is None else nx, 2, 4096, where=where)
     ny = check_int("ny", 2 * nx if ny is None else ny, 2, 8192, where=where)
     if ny % 2:
         raise ValueError(f"{where}: ny must be even (y = 0 is a mesh line); got {ny}")
     degree = check_int("degree", degree, 1, 2, where=where)
     n_steps = check_int("n_steps", n_steps, 10, 10 ** 6, where=where)
+    if rtol is not None:
+        rtol = check_float("rtol", rtol, lo=0.0, lo_open=True, where=where)
     parts = safe_set_components(system, H_c)
     if not parts:
         raise ValueError(f"{where}: the safe set H < {H_c:g} is empty on the strip")
@@ -224,6 +331,99 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         parts = [p for p in parts if p[0] <= value[0] <= p[1]][:1]
     budget.enforce(estimate(system, nx, ny, degree, n_steps, len(parts)), where)
     t0 = time.perf_counter()
+    coarse = _level(where, system, parts, H_c, max(2, nx // 2), _half_even(ny), degree,
+                    kind, value)
+    fine = _level(where, system, parts, H_c, nx, ny, degree, kind, value)
+    met = None
+    while rtol is not None:
+        est = abs(fine["mean"] - coarse["mean"]) / (2 ** ORDER - 1) / fine["mean"] \
+            + fine["rounding"]
+        if est <= rtol:
+            break       # the reliability is checked after its march (below)
+        if 2 * nx > MAX_NX or not _affordable(system, 2 * nx, 2 * ny, degree, n_steps,
+                                              len(parts)):
+            met = False
+            break
+        nx, ny = 2 * nx, 2 * ny
+        coarse, fine = fine, _level(where, system, parts, H_c, nx, ny, degree, kind, value)
+    while True:
+        T, R, diff = _march_levels(fine, coarse, requested, n_steps)
+        est_rel = diff / (2 ** ORDER - 1)
+        est_mean = abs(fine["mean"] - coarse["mean"]) / (2 ** ORDER - 1) / fine["mean"] \
+            + fine["rounding"]
+        if rtol is None or met is False or (est_rel <= rtol and est_mean <= rtol):
+            break
+        if 2 * nx > MAX_NX or not _affordable(system, 2 * nx, 2 * ny, degree,
+                                              2 * n_steps, len(parts)):
+            met = False
+            break
+        nx, ny, n_steps = 2 * nx, 2 * ny, 2 * n_steps
+        coarse, fine = fine, _level(where, system, parts, H_c, nx, ny, degree, kind, value)
+    if rtol is not None:
+        met = met is not False
+        if not met:
+            import warnings
+            warnings.warn(f"{where}: rtol = {rtol:g} not reached (estimate: mean time "
+                          f"{est_mean:.2g}, reliability {est_rel:.2g} at nx = {nx}); the "
+                          f"next mesh is beyond MAX_NX = {MAX_NX} or the budget",
+                          RuntimeWarning, stacklevel=2)
+    T, R = merge_requested(T, R, requested)
+    solved = fine["parts"]
+    info = {"nx": nx, "ny": ny, "degree": degree, "n_steps": n_steps,
+            "parts": len(solved),
+            "ndofs": int(sum(p["ndofs"] for p in solved)),
+            "free_dofs": int(sum(p["free"] for p in solved)),
+            "rounding_error": fine["rounding"],
+            "residual": float(max(p["residual"] for p in solved)),
+            "seconds": time.perf_counter() - t0,
+            "x_range": (float(min(p["mesh"].p[0].min() for p in solved)),
+                        float(max(p["mesh"].p[0].max() for p in solved))),
+            "mean_coarse": coarse["mean"]}
+    if rtol is not None:
+        info["rtol"], info["rtol_met"] = rtol, met
+    estimate_ = {"mean_time": float(est_mean), "reliability": est_rel, "order": ORDER,
+                 "levels": ((coarse["nx"], coarse["ny"], n_steps // 2), (nx, ny, n_steps)),
+                 "assumes": ASSUMES}
+    field = _TauField(system, H_c, [(p["tau_h"], p["mesh"], p["part"][:2]) for p in solved])
+    return FirstPassage("fem", system, H_c, (kind, value), fine["mean"], 0.0, T, R, None,
+                        info, _mean_at=field, _estimate=estimate_)
+
+
+#: Cells across x by default: within 0.2 % of converged on the measured cases
+#: (docs/measurements.md §First passage) in about a second.
+DEFAULT_NX = 32
+#: Largest nx the rtol refinement goes to.
+MAX_NX = 512
+#: The lowest order the two-level estimate assumes: error ≤ |fine − coarse| / (2^ORDER − 1).
+#: Measured orders on the curved mesh are 2 to 3 before the finest levels, but the
+#: paper case (c = 0.2, H_c = 0.15) showed 1.2 between nx = 32 and 64 and the double
+#: well ~1 between 64 and 128 (at 1e-5): with ORDER = 1 the estimate stays an upper
+#: bound there and is 3–7 times pessimistic where the order is 2–3.
+ORDER = 1
+ASSUMES = ("the error of the fine level is at most |fine − coarse|, coarse = (nx/2, ny/2, "
+           "n_steps/2): convergence of order >= 1 in the mesh and the BDF2 step and both "
+           "levels in the asymptotic range (nx >= 16); measured orders 1 to 3, so the "
+           "estimate is 1–7 times the true error.  mean_time is relative and adds the "
+           "rounding estimate; reliability is the largest absolute difference of R over "
+           "the coarse time grid (requested times read beyond it are not covered).")
+
+
+def _half_even(ny: int) -> int:
+    h = max(2, ny // 2)
+    return h + (h % 2)
+
+
+def _affordable(system, nx, ny, degree, n_steps, parts) -> bool:
+    cost = estimate(system, nx, ny, degree, n_steps, parts)
+    try:
+        budget.enforce(cost, "fem.first_passage")
+    except Exception:
+        return False
+    return True
+
+
+def _level(where, system, parts, H_c, nx, ny, degree, kind, value) -> dict[str, Any]:
+    """τ on every part at one resolution (refusing an unresolvable τ)."""
     solved = [_solve_part(system, part, H_c, nx, ny, degree, kind, value) for part in parts]
     solved = [p for p in solved if p["weight"] > 0]
     if not solved:
@@ -234,36 +434,39 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         p["weight"] /= total
         if p["error"] > RESOLVABLE or not (0 < p["mean"] < math.inf):
             raise _unresolvable(where, system, H_c, kind, value, p)
-    mean = float(sum(p["weight"] * p["mean"] for p in solved))
-    for p in solved:
-        t_req = float(requested[-1]) if requested is not None else 0.0
-        t_end = min(max(5.0 * p["mean"], t_req), HORIZON * p["tau_max"])
-        p["T"], p["R"] = _survival(p["L"], p["M"], p["mean"], max(t_end, 5.0 * p["mean"]),
-                                   n_steps, p["at_start"])
-    if len(solved) == 1:
-        T, R = solved[0]["T"], solved[0]["R"]
-    else:
-        T = np.unique(np.concatenate([p["T"] for p in solved]))
-        T = T[T <= min(p["T"][-1] for p in solved)]
-        R = sum(p["weight"] * survival_at(p["T"], p["R"], T) for p in solved)
-    T, R = merge_requested(T, R, requested)
-    info = {"nx": nx, "ny": ny, "degree": degree, "parts": len(solved),
-            "ndofs": int(sum(p["ndofs"] for p in solved)),
-            "free_dofs": int(sum(p["free"] for p in solved)),
-            "rounding_error": float(max(p["error"] for p in solved)),
-            "residual": float(max(p["residual"] for p in solved)),
-            "seconds": time.perf_counter() - t0,
-            "x_range": (float(min(p["mesh"].p[0].min() for p in solved)),
-                        float(max(p["mesh"].p[0].max() for p in solved)))}
-    field = _TauField(system, H_c, [(p["tau_h"], p["mesh"], p["part"][:2]) for p in solved])
-    return FirstPassage("fem", system, H_c, (kind, value), mean, 0.0, T, R, None, info,
-                        _mean_at=field)
+    return {"parts": solved, "nx": nx, "ny": ny,
+            "mean": float(sum(p["weight"] * p["mean"] for p in solved)),
+            "rounding": float(max(p["error"] for p in solved))}
+
+
+def _march_levels(fine, coarse, requested, n_steps):
+    """(T, R) of the fine level (n_steps) and max |R_fine − R_coarse| (n_steps / 2)
+    over the coarse level's time grid, both marched with the fine level's time scales (the
+    grids are nested when n_steps is a multiple of 8)."""
+    t_req = float(requested[-1]) if requested is not None else 0.0
+    out = []
+    for level, steps in ((fine, n_steps), (coarse, max(10, n_steps // 2))):
+        grids = []
+        for p, q in zip(level["parts"], fine["parts"]):
+            t_end = min(max(5.0 * q["mean"], t_req), HORIZON * q["tau_max"])
+            grids.append(_survival(p["L"], p["M"], q["mean"],
+                                   max(t_end, 5.0 * q["mean"]), steps, p["at_start"]))
+        if len(grids) == 1:
+            T, R = grids[0]
+        else:
+            T = np.unique(np.concatenate([g[0] for g in grids]))
+            T = T[T <= min(g[0][-1] for g in grids)]
+            R = sum(p["weight"] * survival_at(g[0], g[1], T)
+                    for p, g in zip(level["parts"], grids))
+        out.append((T, R))
+    (T, R), (Tc, Rc) = out
+    return T, R, float(np.max(np.abs(survival_at(T, R, Tc) - Rc)))
 
 
 def _solve_part(system, part, H_c, nx, ny, degree, kind, value) -> dict[str, Any]:
     """τ on one part of the safe set, the start's functional, and the estimated
     relative rounding error of τ."""
-    mesh, box, absorbing = safe_set_mesh(system, part, H_c, nx, ny)
+    mesh, box, absorbing = safe_set_mesh(system, part, H_c, nx, ny, degree)
     basis = skfem.CellBasis(mesh, element_for(mesh, degree), intorder=quadrature_order(degree))
     L, M = assemble(box, basis, only_walls=True)
     unit = np.asarray(M.sum(axis=0)).ravel()
@@ -287,7 +490,7 @@ def _solve_part(system, part, H_c, nx, ny, degree, kind, value) -> dict[str, Any
                             + np.linalg.norm(unit[free], np.inf)))
     if not (np.all(np.isfinite(tau)) and math.isfinite(error)):
         error = math.inf
-    elif np.min(tau[free]) < -RESOLVABLE * tau_max or residual > 1e-8:
+    elif np.min(tau[free]) < -NEGATIVE * tau_max or residual > 1e-8:
         error = max(error, 1.0)       # a negative mean time: a solver breakdown
     if kind == "point":
         probe = np.asarray(basis.probes(np.array([[value[0]], [value[1]]])).todense()).ravel()
