@@ -1,0 +1,100 @@
+"""Accuracy of fem.first_passage by default and its two-level error estimate (issue 23).
+
+Converged references (fpk_vibro/fem/first_passage.py, docs/measurements.md §First
+passage): the isoparametric Q2 mesh at nx = 64, 128 (paper: also 256) and the
+difference of the last two levels.  τ from (0, 0) unless said:
+
+- paper, r = 0.92, c = 0.2, H_c = 0.15: 38.0770 (nx = 128: 38.07709, 256: 38.07700);
+- softening spring b = −0.2, r = 0.5, c = 0.2, H_c = 0.3 (both walls reached):
+  418.529 (nx = 64: 418.4992, 128: 418.5218, order 2);
+- one wall at 0.6 (r = 0.92, c = 0.2), H_c = 0.25: 153.297 (153.3029, 153.2977);
+- paper with r = 0.2, c = 0.2, H_c = 0.3: 409.37 (409.3080, 409.3517);
+- double well a = −1, b = 1, c = 0.2, one well, H_c = −0.1 from (1, 0): 11.9381
+  (11.93776, 11.93794).
+
+R(t) of the paper case at t = 4, 10, 20, 40, 80, 120 from nx = 128, n_steps = 800
+(its own estimate 4e-4).
+"""
+import numpy as np
+import pytest
+
+from fpk_vibro import VibroImpactSystem, fem
+
+P = VibroImpactSystem.paper
+PAPER = P(r=0.92).replace(c=0.2)
+SOFT = P(r=0.5, b=-0.2, c=0.2)
+ONE_WALL = P(r=0.92, c=0.2, barriers="right")
+R_SMALL = P(r=0.2, c=0.2)
+WELLS = VibroImpactSystem(a=-1.0, b=1.0, c=0.2, D1=0.01, D2=0.01, barriers="none")
+
+CASES = {
+    "paper": (PAPER, 0.15, (0.0, 0.0), 38.0770),
+    "soft": (SOFT, 0.3, (0.0, 0.0), 418.529),
+    "one_wall": (ONE_WALL, 0.25, (0.0, 0.0), 153.297),
+    "r_small": (R_SMALL, 0.3, (0.0, 0.0), 409.37),
+    "wells": (WELLS, -0.1, (1.0, 0.0), 11.9381),
+}
+T_PAPER = np.array([4.0, 10.0, 20.0, 40.0, 80.0, 120.0])
+R_PAPER = np.array([0.9850254, 0.8545445, 0.6347263, 0.3481928, 0.1047750, 0.0315279])
+
+
+def solve(name, **kw):
+    system, H_c, start, ref = CASES[name]
+    return fem.first_passage(system, energy=H_c, start=start, **kw), ref
+
+
+@pytest.mark.parametrize("name", ["paper", "soft", "r_small", "wells"])
+def test_default_within_0p2_percent(name):
+    """Measured at the default nx = 32: 4.5e-5, 2.9e-4, 5.1e-4, 2e-5 (was 3.6e-3 on
+    the paper case with the uniform straight-edged mesh at nx = 24)."""
+    fp, ref = solve(name)
+    assert abs(fp.mean / ref - 1.0) < 2e-3
+    est = fp.error_estimate()
+    assert abs(fp.mean / ref - 1.0) <= 2.0 * est["mean_time"]
+
+
+@pytest.mark.parametrize("name, nxs", [("paper", (16, 32, 64)), ("soft", (16, 32)),
+                                       ("one_wall", (16, 32))])
+def test_mean_time_estimate_effectivity(name, nxs):
+    """true / estimate in [1/30, 2] (measured 0.17–0.6 on paper and soft)."""
+    for nx in nxs:
+        fp, ref = solve(name, nx=nx)
+        true = abs(fp.mean / ref - 1.0)
+        est = fp.error_estimate()["mean_time"]
+        assert est / 30.0 <= true <= 2.0 * est, (nx, true, est)
+
+
+def test_reliability_estimate_effectivity():
+    fp, _ = solve("paper", times=T_PAPER)
+    true = float(np.max(np.abs(fp.reliability(T_PAPER) - R_PAPER)))
+    est = fp.error_estimate()["reliability"]
+    assert est / 30.0 <= true <= 2.0 * est, (true, est)
+
+
+@pytest.mark.parametrize("name", ["paper", "soft"])
+def test_convergence_order(name):
+    """Orders 2.0 (paper) and 2.9 (soft) from nx = 8, 16, 32 (the straight-edged
+    uniform mesh: erratic, 38.30, 38.22, 38.12 at nx = 12, 24, 48)."""
+    tau = [solve(name, nx=nx, n_steps=40)[0].mean for nx in (8, 16, 32)]
+    order = np.log2(abs(tau[1] - tau[0]) / abs(tau[2] - tau[1]))
+    assert order > 1.7, tau
+
+
+def test_rtol_refines_until_met():
+    fp, ref = solve("soft", nx=8, rtol=3e-3)
+    est = fp.error_estimate()
+    assert fp.info["rtol_met"] and fp.info["nx"] > 8
+    assert est["mean_time"] <= 3e-3 and est["reliability"] <= 3e-3
+    assert abs(fp.mean / ref - 1.0) <= 3e-3
+    assert "assumes" in est and est["levels"][1][0] == fp.info["nx"]
+
+
+def test_estimate_of_other_methods():
+    from fpk_vibro.first_passage import FirstPassage
+    av = FirstPassage("averaging", PAPER, 0.15, ("point", (0.0, 0.0)), 38.0, 0.0,
+                      np.array([0.0, 1.0]), np.array([1.0, 0.9]))
+    with pytest.raises(ValueError, match="no error estimate"):
+        av.error_estimate()
+    mc = FirstPassage("montecarlo", PAPER, 0.15, ("point", (0.0, 0.0)), 38.0, 0.5,
+                      np.array([0.0, 1.0]), np.array([1.0, 0.9]))
+    assert mc.error_estimate()["mean_time"] == pytest.approx(1.96 * 0.5 / 38.0)
