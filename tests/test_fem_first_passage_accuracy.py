@@ -1,8 +1,7 @@
 """Accuracy of fem.first_passage by default and its two-level error estimate (issue 23).
 
-Converged references (fpk_vibro/fem/first_passage.py, docs/measurements.md §First
-passage): the isoparametric Q2 mesh at nx = 64, 128 (paper: also 256) and the
-difference of the last two levels.  τ from (0, 0) unless said:
+Converged references (docs/fem_first_passage.md): the isoparametric Q2 mesh at
+nx = 64, 128 (paper: also 256) and the difference of the last two levels.  τ from (0, 0) unless said:
 
 - paper, r = 0.92, c = 0.2, H_c = 0.15: 38.0770 (nx = 128: 38.07709, 256: 38.07700);
 - softening spring b = −0.2, r = 0.5, c = 0.2, H_c = 0.3 (both walls reached):

@@ -8,8 +8,13 @@ G(A) = H_c (a turning-point end is pulled just inside).  Paths never leave their
 part, so each part holding start mass is solved on its own: τ from a point is that
 of its part; a spread start mixes the parts by their start mass.  Each part is
 meshed by quadrilaterals fitted to it: nodes
-(x_i, η_j Y(x_i)) for a uniform grid in x and η ∈ [−1, 1], so that the absorbing
-boundary H = H_c is a mesh boundary (second-order geometry) and y = 0 a mesh line.
+(x(s_i), η_j Y(x(s_i))) for uniform grids in s ∈ [0, 1] and η ∈ [−1, 1], x(s) graded
+quadratically toward turning points, so that the absorbing boundary H = H_c is a
+mesh boundary and y = 0 a mesh line; for degree 2 the mesh is isoparametric (edge
+and centre nodes on the same map: the curved boundary is followed).  On the old
+uniform straight-edged mesh τ converged erratically at order <= 2 (paper case
+c = 0.2, H_c = 0.15: 0.36 % off at nx = 24; docs/fem_first_passage.md).  Error
+estimate: the same solve at nx/2, ny/2, n_steps/2 (:data:`ASSUMES`).
 On it the same generator L and mass matrix M as for densities are assembled
 (:func:`fpk_vibro.fem.generator.assemble`, impact coupling included), and the DOFs on
 the absorbing boundary are fixed to zero.  Restricted to the free DOFs f:
@@ -207,7 +212,7 @@ def safe_set_mesh(system: VibroImpactSystem, part: tuple, H_c: float, nx: int, n
     the curved boundary, and τ converged erratically at second order at best (paper
     system c = 0.2, H_c = 0.15, Q2: 38.30, 38.22, 38.12, 38.086 for nx = 12 … 96
     against 38.0765); graded and curved: 38.094, 38.0817, 38.0787, 38.0774 for
-    nx = 8 … 64 (docs/measurements.md §First passage).
+    nx = 8 … 64 (docs/fem_first_passage.md).
     """
     x_lo, x_hi, left, right = part
     half = 0.5 * (x_hi - x_lo)
@@ -390,7 +395,7 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
 
 
 #: Cells across x by default: within 0.2 % of converged on the measured cases
-#: (docs/measurements.md §First passage) in about a second.
+#: (docs/fem_first_passage.md) in about a second.
 DEFAULT_NX = 32
 #: Largest nx the rtol refinement goes to.
 MAX_NX = 512
