@@ -100,6 +100,12 @@ class Options(_Options):
                                 "3 or 4 (Q3/Q4, the structured quad mesh with tensor "
                                 "assembly)", "int", lo=1, hi=4,
                                 auto="2, or 1 with positivity")
+    rtol: float | None = option(None, "accuracy goal: degree 2-4 and nx are chosen until the "
+                                "estimated relative errors of E[H], E[x²], E[y²], P_impact "
+                                "are below it (sol.error_estimate(), which also gives the "
+                                "L1 error); not with mesh, nx, ny, degree or positivity", "float", lo=1e-10, hi=0.5, modes=S,
+                                auto="no adaptation (the estimate is still available: "
+                                     "sol.error_estimate())")
     solver: str = option("auto", "linear solver of the stationary system", "choice",
                          choices=SOLVERS, modes=S)
     element: str = option("quad", "structured quadrilaterals or triangles", "choice",
@@ -147,6 +153,19 @@ class Options(_Options):
         def bad(name: str, msg: str) -> InputError:
             return InputError(f"{where}: {name} {msg}", where=where, name=name)
 
+        if mode == "stationary" and self.rtol is not None:
+            if self.degree != 1:
+                raise bad("degree", "must not be given with rtol (rtol chooses degree 2-4)")
+            for name in ("mesh", "nx", "ny"):
+                if getattr(self, name) is not None:
+                    raise bad(name, "must not be given with rtol (rtol chooses the mesh; "
+                              "give one or the other)")
+            if self.positivity not in ("auto", False):
+                raise bad("positivity", "must not be given with rtol (the adaptive solve "
+                          "is Galerkin, degrees 2-4)")
+            if self.element != "quad" or self.assembly == "general":
+                raise bad("rtol", "needs the structured quadrilateral mesh with tensor "
+                          "assembly (element 'quad', assembly 'auto' or 'tensor')")
         if pos and self.degree != 1:
             raise bad("positivity", "needs degree = 1 (Q1/P1 basis functions are "
                       "non-negative; Q2/P2 are not)")

@@ -93,6 +93,8 @@ class FEMSolution(Solution):
         self.y_max = float(mesh.p[1].max())
         self._tensor_cache = None
         self._basis = None
+        self._options: Any = None       # the options it was solved with (estimate)
+        self._estimate: dict | None = None
 
     @property
     def basis(self) -> skfem.CellBasis:
@@ -286,6 +288,8 @@ class FEMSolution(Solution):
         diag = integrals.diagnose(q, RESOLUTION_TOL)
         self._info.update(diag)
         self._resolution = diag
+        if self._estimate is not None:
+            self._apply_estimate()
 
     def resolution(self) -> dict[str, Any]:
         """Whether the mesh resolves the density, from the density itself.
@@ -311,6 +315,43 @@ class FEMSolution(Solution):
         if self._resolution is None:
             self._record(self._quadrature())
         return dict(self._resolution)
+
+    def error_estimate(self) -> dict[str, Any]:
+        """The estimated errors of this density (:mod:`fpk_vibro.fem.estimate`).
+
+        Returns
+        -------
+        dict
+            ``L1`` (∫|p_h − p|), ``E_H``, ``E_x2``, ``E_y2`` and with barriers
+            ``P_impact`` (relative), ``assumes`` (what the estimate rests on),
+            ``richer`` (the level it was compared with), ``seconds``.  Computed on
+            first call by one richer solve (degree + 1, or h/2 at degree 4) unless
+            ``fem.stationary(..., rtol=...)`` made it already; afterwards
+            ``info["error_estimate"]`` holds the largest entry and
+            ``info["under_resolved"]`` is also set when it exceeds the solve's
+            ``rtol`` (or 1e-3, :data:`RESOLUTION_TOL`, without one).
+        """
+        if self._estimate is None:
+            from .estimate import error_estimate
+            self._estimate = error_estimate(self)
+        self._apply_estimate()
+        return dict(self._estimate)
+
+    def _apply_estimate(self) -> None:
+        from .estimate import worst
+        est = self._estimate
+        if est is None:
+            return
+        info = self.info
+        e = worst(est)
+        goal = info.get("rtol") or RESOLUTION_TOL
+        info["error_estimate"] = e
+        if e > goal:
+            reason = (f"error estimate {e:.2g} > {goal:g} ({est['richer']} differs; "
+                      f"{est['assumes']})")
+            old = self._resolution.get("under_resolved_reason") or ""
+            info["under_resolved"] = True
+            info["under_resolved_reason"] = f"{old}; {reason}" if old else reason
 
     def moments(self) -> dict[str, float]:
         """E[H], E[x²], E[y²], E[x⁴], E[y⁴] and, with barriers, P_impact.
