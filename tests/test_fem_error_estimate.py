@@ -112,7 +112,10 @@ DOUBLE_WELL = VibroImpactSystem(a=-1.0, b=1.0, c=0.025, D1=0.05, D2=0.01, delta=
 
 
 @pytest.mark.parametrize("s,kw", [(PAPER, {"nx": 16}), (DOUBLE_WELL, {"nx": 48}),
-                                  (PAPER, {"nx": 2})], ids=["nx16", "double-well", "nx2"])
+                                  (PAPER, {"nx": 2}),
+                                  (VibroImpactSystem.paper(c=1e6), {}),
+                                  (VibroImpactSystem.paper(D1=1e-12), {})],
+                         ids=["nx16", "double-well", "nx2", "c=1e6", "D1=1e-12"])
 def test_wrong_answers_meet_their_estimate(s, kw):
     """The issue's 'wrong answers flagged as resolved': the estimate covers the
     true error (reference: Q4 at nx = 32, within 6e-5 of nx = 64)."""
@@ -120,7 +123,8 @@ def test_wrong_answers_meet_their_estimate(s, kw):
     est = sol.error_estimate()
     ref = fem.stationary(s, degree=4, nx=32, positivity=False).moments()
     m = sol.moments()
-    true = {k: abs(m[k] - ref[k]) / abs(ref[k]) for k in JUDGED}
+    true = {k: abs(m[k] - ref[k]) / (max(abs(ref[k]), 1e-3) if k == "P_impact" else abs(ref[k]))
+            for k in JUDGED}
     for k in JUDGED:
         assert true[k] <= 2 * est[k], (k, true[k], est[k])
     if max(true.values()) > 1e-3:
@@ -137,3 +141,10 @@ def test_rtol_is_declared_once_and_checked():
         assert "\n" not in str(exc.value) and "rtol" in str(exc.value)
     with pytest.raises(InputError, match="rtol must be"):
         fem.stationary(PAPER, rtol=0.0)
+
+
+def test_a_y_max_beyond_the_density_is_refused_naming_it():
+    """y_max = 1e6 (E[H] 3.3e8 off before; its richer level made SuperLU stall)."""
+    with pytest.raises(InputError) as exc:
+        fem.stationary(PAPER, y_max=1e6)
+    assert exc.value.name == "y_max" and "\n" not in str(exc.value)

@@ -17,8 +17,12 @@ to one level richer, p⁺ (Galerkin, same strip and y_max):
 Assumption: p⁺ is closer to the true density than p_k, so |p_k − p⁺| ≈ ‖p_k − p‖
 (within the ratio e⁺/e of the two errors).  That holds once the mesh resolves the
 density; where it does not the two levels may agree by accident, so the
-estimate multiplies the difference by :data:`SAFETY` and the solution is flagged
-``under_resolved`` when the estimate exceeds ``rtol``.
+estimate multiplies the difference by :data:`SAFETY`; where they differ by more
+than :data:`UNCONVERGED` (50 %) the estimate is infinite (no bound follows), and
+the solution is flagged ``under_resolved`` when the estimate exceeds ``rtol``.
+Measured effectivity (true / estimate): 0.3–0.9 on the exact Gibbs cases and on
+random double wells, softening and one-sided/asymmetric walls, r down to 0.3,
+D2 up to 0.1 (tests/test_fem_error_estimate.py).
 
 Adaptive solve (:func:`adaptive`, ``fem.stationary(system, rtol=...)``)
 ----------------------------------------------------------------------
@@ -44,6 +48,8 @@ __all__ = ["ASSUMES", "SAFETY", "KEYS", "JUDGED", "worst", "error_estimate", "di
 
 #: The difference to the richer level is multiplied by this (see the module docstring).
 SAFETY = 2.0
+#: A relative difference above this between the levels gives an infinite estimate.
+UNCONVERGED = 0.5
 KEYS = ("L1", "E_H", "E_x2", "E_y2", "P_impact")
 ASSUMES = ("the difference to one level richer (degree k+1 on the same mesh, or h/2 at "
            "degree 4), times {safety:g}, plus the Gaussian tail beyond y_max; assumes the "
@@ -158,7 +164,10 @@ def truncation(sol) -> float:
 
 
 def _combine(diff: dict[str, float], tail: float, sol) -> dict[str, float]:
-    est = {k: SAFETY * v for k, v in diff.items()}
+    # levels that differ by more than UNCONVERGED are not in the asymptotic range:
+    # no bound can be read off them (measured: c = 1e6, E[x²] differed by 100 %
+    # between Q1 and Q2 while both were 12× off)
+    est = {k: SAFETY * v if v <= UNCONVERGED else math.inf for k, v in diff.items()}
     est["L1"] += 2.0 * tail
     Y2 = float(sol.y_max) ** 2
     m = _moments(sol)

@@ -230,7 +230,19 @@ class Options(_Options):
                 raise bad("y_max", f"must be at least the thermal velocity sqrt(D1/λ) = "
                           f"{v:.3g} (below it most of the density lies outside the strip); "
                           f"got {self.y_max!r}")
-        dom, nx, _ = self.grid(system, where)
+        dom, nx, ny = self.grid(system, where)
+        if mode == "stationary" and self.y_max is not None and system.c > 0:
+            from .mesh import default_y_max
+            try:
+                tail = default_y_max(system)
+            except ValueError:
+                tail = math.inf
+            h_y = 2.0 * dom.y_max / ny
+            if h_y > 2.0 * tail:      # all the density's y-extent inside one cell
+                raise bad("y_max", f"must give cells below 2 × {tail:.3g} tall (the default "
+                          f"y_max, beyond which the mass is < 1e-8); got 2 y_max/ny = "
+                          f"{h_y:.3g} (y_max = {dom.y_max:.3g}, ny = {ny}): measured E[H] "
+                          "3.3e8 times the true one at y_max = 1e6")
         if system.c > 0 and system.has_barrier:
             self._check_wall_layers(system, dom, nx, bad)
 

@@ -345,7 +345,7 @@ class FEMSolution(Solution):
         info = self.info
         e = worst(est)
         goal = info.get("rtol") or RESOLUTION_TOL
-        info["error_estimate"] = e
+        info["error_estimate"] = e if np.isfinite(e) else 1e300     # (JSON: no inf)
         if e > goal:
             reason = (f"error estimate {e:.2g} > {goal:g} ({est['richer']} differs; "
                       f"{est['assumes']})")
