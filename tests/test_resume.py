@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from fpk_vibro import cli
+from test_faults import SWEEP
 
 AVG = """
 [system]
@@ -39,27 +40,8 @@ formats = {formats}
 r = [{r}]
 """
 
-MC = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
-[study]
-methods = ["montecarlo"]
-quantities = ["moments"]
-[montecarlo]
-n_paths = 512
-t_sample = {t_sample}
-threads = 1
-seed = 3
-[sweep]
-r = [{r}]
-"""
+MC = SWEEP   # the Monte Carlo sweep of the signal tests
+
 
 
 def write(tmp_path, text, name, **fmt):
