@@ -118,6 +118,31 @@ def eval_in_cells(sol, cells: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.nd
                 * sol.dofs[b.element_dofs[k, cells]][:, None])
     return out
 
+def cut_pieces(system: VibroImpactSystem, level: float, breaks: np.ndarray,
+               lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The x-pieces of cells [lo, hi] between their breaks (``breaks``, one row per
+    cell, NaN where none) and the roots of G(x) = level (on y = 0): the cell of each
+    piece and its ends ``xa``, ``xb``."""
+    s = system
+    gcoef = ([0.25 * s.b, 0.0, 0.5 * s.a, 0.0, -level] if s.b != 0
+             else [0.5 * s.a, 0.0, -level] if s.a != 0 else [1.0, 0.0, 1.0])
+    groots = real_roots(np.array([gcoef]))[0]          # G(x) = level: on y = 0
+    br = np.concatenate([breaks, np.broadcast_to(groots, (lo.size, groots.size))], axis=1)
+    br = np.where(np.isfinite(br), br, lo[:, None])
+    br = np.sort(np.clip(br, lo[:, None], hi[:, None]), axis=1)
+    keep = br[:, 1:] - br[:, :-1] > 1e-13 * (hi - lo)[:, None]
+    return np.nonzero(keep)[0], br[:, :-1][keep], br[:, 1:][keep]
+
+
+def cut_nodes(xa: np.ndarray, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss nodes and weights in x on the pieces [xa, xb], graded toward both ends
+    (x = 1.5 t − 0.5 t³: the √ behaviour of the energy curve at a turning point)."""
+    t, wt = np.polynomial.legendre.leggauss(CUT_NX)
+    mid, half = 0.5 * (xa + xb), 0.5 * (xb - xa)
+    return (mid[:, None] + half[:, None] * (1.5 * t - 0.5 * t ** 3),
+            half[:, None] * (1.5 * wt * (1.0 - t * t)))
+
+
 def cut_integrals(sol, cells: np.ndarray, level: float, chunk: int = 1_000) -> np.ndarray:
     """[[above, below] of p_h, [above, below] of p₊] summed over ``cells``
     (module docstring: x outside with break points, y inside)."""
@@ -145,23 +170,11 @@ def cut_integrals(sol, cells: np.ndarray, level: float, chunk: int = 1_000) -> n
                          np.where(ok, 0.5 * ic * ic - level, 1.0)], axis=1)
     roots = real_roots(coef).reshape(vert.shape + (-1,))
     roots = np.where(vert[..., None], np.nan, roots).transpose(1, 0, 2).reshape(x0.shape[1], -1)
-    gcoef = ([0.25 * s.b, 0.0, 0.5 * s.a, 0.0, -level] if s.b != 0
-             else [0.5 * s.a, 0.0, -level] if s.a != 0 else [1.0, 0.0, 1.0])
-    groots = real_roots(np.array([gcoef]))[0]          # G(x) = level: on y = 0
-    br = np.concatenate([x0.T, roots, np.broadcast_to(groots, (x0.shape[1], groots.size))],
-                        axis=1)
-    br = np.where(np.isfinite(br), br, xlo[:, None])
-    br = np.sort(np.clip(br, xlo[:, None], xhi[:, None]), axis=1)
-    keep = br[:, 1:] - br[:, :-1] > 1e-13 * (xhi - xlo)[:, None]
-    ci = np.nonzero(keep)[0]
-    xa, xb = br[:, :-1][keep], br[:, 1:][keep]
-    t, wt = np.polynomial.legendre.leggauss(CUT_NX)
+    ci, xa, xb = cut_pieces(s, level, np.concatenate([x0.T, roots], axis=1), xlo, xhi)
     u, wu = np.polynomial.legendre.leggauss(CUT_NY)
     for k in range(0, ci.size, chunk):             # bounded memory, not per element
         c = ci[k:k + chunk]
-        mid, half = 0.5 * (xa[k:k + chunk] + xb[k:k + chunk]), 0.5 * (xb[k:k + chunk] - xa[k:k + chunk])
-        xq = mid[:, None] + half[:, None] * (1.5 * t - 0.5 * t ** 3)
-        wx = half[:, None] * (1.5 * wt * (1.0 - t * t))
+        xq, wx = cut_nodes(xa[k:k + chunk], xb[k:k + chunk])
         # the vertical chord [ylo, yhi] of the (convex) cell at each xq
         ex0, ey0, ex1, ey1 = (a[:, c, None] for a in (x0, y0, x1, y1))
         ev = vert[:, c, None]

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .integrals import CUT_NX, CUT_NY, potential_range, real_roots
+from .integrals import CUT_NY, cut_nodes, cut_pieces, potential_range, real_roots
 
 __all__ = ["TensorField"]
 
@@ -190,25 +190,13 @@ class TensorField:
         else:
             coef = np.tile([1.0, 0.0, 1.0], (yn.size, 1))
         yroots = real_roots(coef)                           # (ny + 1, d)
-        gcoef = ([0.25 * s.b, 0.0, 0.5 * s.a, 0.0, -level] if s.b != 0
-                 else [0.5 * s.a, 0.0, -level] if s.a != 0 else [1.0, 0.0, 1.0])
-        groots = real_roots(np.array([gcoef]))[0]
         x0, x1 = self.xs[ci], self.xs[ci + 1]
-        br = np.concatenate([x0[:, None], x1[:, None], yroots[cj], yroots[cj + 1],
-                             np.broadcast_to(groots, (ci.size, groots.size))], axis=1)
-        br = np.where(np.isfinite(br), br, x0[:, None])
-        br = np.sort(np.clip(br, x0[:, None], x1[:, None]), axis=1)
-        keep = br[:, 1:] - br[:, :-1] > 1e-13 * (x1 - x0)[:, None]
-        piece = np.nonzero(keep)[0]
-        xa, xb = br[:, :-1][keep], br[:, 1:][keep]
-        t, wt = np.polynomial.legendre.leggauss(CUT_NX)
+        piece, xa, xb = cut_pieces(s, level, np.concatenate(
+            [x0[:, None], x1[:, None], yroots[cj], yroots[cj + 1]], axis=1), x0, x1)
         u, wu = np.polynomial.legendre.leggauss(CUT_NY)
         for k in range(0, piece.size, chunk):
             c = piece[k:k + chunk]
-            mid = 0.5 * (xa[k:k + chunk] + xb[k:k + chunk])
-            half = 0.5 * (xb[k:k + chunk] - xa[k:k + chunk])
-            xq = mid[:, None] + half[:, None] * (1.5 * t - 0.5 * t ** 3)   # (n, NX)
-            wx = half[:, None] * (1.5 * wt * (1.0 - t * t))
+            xq, wx = cut_nodes(xa[k:k + chunk], xb[k:k + chunk])             # (n, NX)
             ylo, yhi = self.ys[cj[c]][:, None], self.ys[cj[c] + 1][:, None]
             Y = np.sqrt(np.maximum(2.0 * (level - s.potential(xq)), 0.0))
             lo = np.stack([np.broadcast_to(ylo, Y.shape), np.maximum(ylo, Y),
