@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 import os
+import socket
 import signal
 import time
 from pathlib import Path
@@ -404,7 +405,8 @@ def _on_dask(client: Any, jobs: list):
                 raise
             except BaseException as exc:   # CancelledError is one (not an Exception)
                 if "connection-lost" in str(getattr(exc, "reason", "")) or \
-                        client.status not in ("running", "newly-created"):
+                        client.status not in ("running", "newly-created") or \
+                        _scheduler_gone(exc, address):
                     lost = True
                     raise SchedulerLost(f"the Dask scheduler {address} was lost "
                                         "mid-sweep") from None
@@ -420,6 +422,24 @@ def _on_dask(client: Any, jobs: list):
             except Exception:
                 pass
         raise
+
+
+def _scheduler_gone(exc: BaseException, address: str) -> bool:
+    """Whether ``exc`` (fetching a result) is the scheduler's loss: a closed
+    connection while nothing listens at ``address`` any more.  The client notices
+    the loss itself only later, so a result fetched in between would otherwise be
+    taken for a point's own failure."""
+    from distributed.comm import CommClosedError, parse_address, parse_host_port
+    if not isinstance(exc, (CommClosedError, OSError)) or not address:
+        return False
+    try:
+        host, port = parse_host_port(parse_address(address)[1])
+        socket.create_connection((host, port), timeout=2.0).close()
+    except OSError:
+        return True
+    except Exception:      # an address the check cannot read: not proof of a loss
+        return False
+    return False
 
 
 def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]],
