@@ -139,9 +139,11 @@ def test_p_impact_zero_where_nothing_impacts(kw):
     fe = fem.stationary(system).moments()["P_impact"]
     avg = averaging.stationary(system).moments()["P_impact"]
     mc = montecarlo.stationary(system, seed=1, target_rse=5e-3, progress=False)
-    assert fe == 0.0                        # no cell of the strip reaches H = G(Δ)
+    # the exact P_impact is e^(-c G(Δ)/D) ≈ 0; FE gives round-off (Δ = 50) or its
+    # noise floor (D1 = 1e-6: 9e-10, the mass its non-negative correction keeps there)
+    assert fe <= 1e-8
     assert avg < 1e-12
-    assert abs(fe - mc.moments()["P_impact"]) <= 3 * mc.moments_se()["P_impact"] + 1e-12
+    assert abs(fe - mc.moments()["P_impact"]) <= 3 * mc.moments_se()["P_impact"] + 1e-8
 
 
 def test_p_impact_paper_case_agrees_with_monte_carlo():
@@ -198,11 +200,12 @@ def test_coarse_mesh_flagged_and_even_moments_non_negative():
 
 
 def test_resolved_mesh_moments_are_the_galerkin_moments():
-    """Paper case, default mesh: not flagged (negative mass 5e-14), and the moments are
-    the Galerkin functionals of p_h, as before."""
+    """Paper case, default solve: not flagged (its nodes are >= 0; between them the
+    degree >= 2 density dips by 3e-11 of mass, which the estimate includes), and the
+    moments are the Galerkin functionals of p_h, as before."""
     sol = fem.stationary(P(r=0.92))
     assert sol.info["under_resolved"] is False and sol.info["under_resolved_reason"] == ""
-    assert sol.info["negative_mass"] < 1e-12 and sol.info["moments_of"] == "p_h"
+    assert sol.info["negative_mass"] < 1e-9 and sol.info["moments_of"] == "p_h"
     m, g = sol.moments(), _signed_moments(sol)
     for k in EVEN:
         assert abs(m[k] - g[k]) <= 1e-13 * g[k], k

@@ -43,24 +43,29 @@ def test_plain_galerkin_goes_negative_on_hard_case():
     assert sol.info["discretisation"] == "galerkin"
 
 
-def test_auto_switches_only_when_galerkin_goes_negative():
-    """positivity="auto" (the default): the hard case switches to the positive
-    generator (nx given: the same nx, ny = 2 nx) and says why; the exact case keeps
-    Galerkin (bit-identical to positivity=False); degree 2 cannot switch and says so."""
+def test_auto_corrects_galerkin_and_records_what_it_changed():
+    """positivity="auto" (the default): the Galerkin density of the hard case, with its
+    negative nodes removed by the local mass-keeping redistribution
+    (fpk_vibro.fem.nonnegative); info says so and records ∫|Δp|, which is the L1
+    distance to the raw Galerkin density; where Galerkin is already >= 0 nothing
+    changes (bit-identical to positivity=False); degree 2 is corrected too."""
+    from fpk_vibro.fem.estimate import l1_difference
     sol = stationary(HARD[2], nx=16)
-    assert sol.info["discretisation"] == "positive" and sol.info["positivity"] == "auto"
-    assert "switched" in sol.info["discretisation_reason"]
-    assert sol.info["galerkin_min_ratio"] < -0.01
+    raw = stationary(HARD[2], nx=16, positivity=False)
+    assert sol.info["discretisation"] == "galerkin" and sol.info["positivity"] == "auto"
+    assert "redistribution" in sol.info["discretisation_reason"]
+    assert sol.info["galerkin_min_ratio"] < -0.01 and raw.min_density < 0
     assert sol.min_density >= 0 and abs(sol.mass - 1) < 1e-12
-    ref = stationary(HARD[2], nx=16, ny=32, positivity="quick")
-    assert np.array_equal(sol.dofs, ref.dofs)
-    gal = stationary(EXACT, nx=16)
-    assert gal.info["discretisation"] == "galerkin"
-    assert "auto: Galerkin min p" in gal.info["discretisation_reason"]
-    assert np.array_equal(gal.dofs, stationary(EXACT, nx=16, positivity=False).dofs)
+    c = sol.info["correction"]
+    assert c["L1"] == pytest.approx(l1_difference(sol, raw), rel=1e-12)
+    assert 0 < c["L1"] < 0.1
+    gal = stationary(EXACT, nx=16, ny=64)
+    if stationary(EXACT, nx=16, ny=64, positivity=False).min_density >= 0:
+        assert gal.info["correction"]["L1"] == 0.0
+        assert np.array_equal(gal.dofs, stationary(EXACT, nx=16, ny=64,
+                                                   positivity=False).dofs)
     q2 = stationary(HARD[2], nx=8, degree=2)
-    assert q2.info["discretisation"] == "galerkin"
-    assert "Galerkin kept (negative)" in q2.info["discretisation_reason"]
+    assert q2.min_density >= 0 and q2.info["correction"]["L1"] > 0
     assert "requested" in stationary(EXACT, nx=8, positivity=True).info[
         "discretisation_reason"]
 

@@ -33,7 +33,8 @@ def _pair(name, degree):
         kw["nx"], kw["ny"] = max(2, kw["nx"] // 2), max(2, kw["ny"] // 2)
     sol = fem.stationary(system, degree=degree, **kw)
     assert sol._tensor is not None
-    general = FEMSolution(sol.system, sol.mesh, sol.degree, sol.dofs, mass=sol.mass)
+    general = FEMSolution(sol.system, sol.mesh, sol.degree, sol.dofs, mass=sol.mass,
+                          info={"nonnegative": sol.info.get("nonnegative", False)})
     return sol, general
 
 

@@ -2,6 +2,7 @@
 one line naming the parameter, the allowed range and the value given; and the cost
 estimates of ``fpk-vibro check`` stay honest for extreme times and mesh shapes."""
 import json
+import math
 import subprocess
 import sys
 import textwrap
@@ -70,15 +71,24 @@ def test_strong_softening_is_refused_by_fem_in_one_line():
 
 def test_wall_layer_needs_nx_and_then_solves():
     """b = −300: the force 64 presses the density into a layer 0.0062 wide at each
-    wall; the default nx is refused naming the nx needed, which then solves."""
+    wall; a given nx that is too small is refused naming the nx needed, which then
+    solves (Galerkin within 2e-3).  Its non-negative correction changes the density
+    by far more (the Galerkin layer oscillates), so that answer is flagged; the
+    default (rtol) answer is flagged with an unbounded estimate, not refused."""
     s = VibroImpactSystem(a=1.0, b=-300.0, c=0.025, D1=0.01, delta=0.6)
     with pytest.raises(InputError) as exc:
-        fem.stationary(s)
+        fem.stationary(s, nx=128)
     _one_line(exc, "nx", "at least 193", "got 128")
-    got = fem.stationary(s, nx=200, ny=96).moments()
     ref = GibbsSolution(s).moments()
+    got = fem.stationary(s, nx=200, ny=96, positivity=False).moments()
     for k in ("E_H", "E_x2", "E_y2"):
         assert got[k] == pytest.approx(ref[k], rel=2e-3), k
+    fixed = fem.stationary(s, nx=200, ny=96)
+    assert fixed.min_density >= 0 and fixed.info["under_resolved"] is True
+    assert "non-negative correction" in fixed.info["under_resolved_reason"]
+    default = fem.stationary(s)
+    assert default.info["under_resolved"] is True and "rtol_not_reached" in default.info
+    assert default.error_estimate()["E_H"] == math.inf
 
 
 def test_softening_reach_is_the_wall():

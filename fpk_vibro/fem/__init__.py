@@ -23,7 +23,7 @@ from ..model import VibroImpactSystem
 from .discretisation import Discretisation, build
 from .generator import assemble, assemble_tensor
 from .mesh import Domain, default_y_max, domain, load_mesh, structured_mesh
-from .options import DEFAULT_NX, POSITIVITY, Options
+from .options import DEFAULT_NX, DEFAULT_RTOL, POSITIVITY, Options
 from .solution import FEMSolution
 from .solve import SOLVERS
 
@@ -36,13 +36,16 @@ __all__ = ["stationary", "transient", "Options", "Discretisation", "build", "FEM
 def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                solver: str = "auto", element: str = "quad", grading: float = 0.0,
-               positivity: bool | str = "auto", assembly: str = "auto",
-               rtol: float | None = None) -> FEMSolution:
+               wall_grading: float | None = None, positivity: bool | str = "auto",
+               assembly: str = "auto", rtol: float | None = None) -> FEMSolution:
     """Stationary density of the 2-D FPK with impact coupling.
 
     Solves L p = 0, ∫ p = 1 where L is the conservative Galerkin generator
     (``assemble``: ∫ J·∇q − B₊ − B₋; docs/theory.md, §Impact coupling) on a mesh
-    of the strip.
+    of the strip.  Given none of ``mesh``, ``nx``, ``ny``, ``positivity`` (and
+    ``degree`` at its default), the mesh and degree are chosen for ``rtol`` = 1e-4
+    (best effort) and the density is non-negative; ``sol.error_estimate()`` says
+    how accurate it is.
 
     Parameters
     ----------
@@ -57,7 +60,8 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         Truncation |y| < y_max; default from the energy tail (mass beyond < 1e-8,
         :func:`fpk_vibro.fem.mesh.domain`, :mod:`fpk_vibro.scales`).
     degree : {1, 2, 3, 4}
-        Q1/P1 or Q2/P2 Lagrange elements; 3, 4: Q3/Q4 on the structured quad mesh
+        Default 1, used with a mesh, nx or ny (otherwise rtol chooses 2–4).  Q1/P1
+        or Q2/P2 Lagrange elements; 3, 4: Q3/Q4 on the structured quad mesh
         with tensor assembly only (:mod:`fpk_vibro.fem.highorder`; default nx 32,
         24).  Measured L1 orders on the exact case: Q3 4, Q4 5 falling to 4
         (docs/measurements.md, §Degrees 3 and 4).
@@ -67,6 +71,10 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         Structured quadrilaterals or triangles (ignored with ``mesh``).
     grading : float
         ≥ 0: cluster the y-nodes towards y = 0 (sinh map).
+    wall_grading : float, optional
+        ≥ 1: cluster the x-nodes toward each wall with r < 1
+        (:func:`fpk_vibro.fem.mesh.wall_nodes`); default 2 in the rtol solve, else
+        uniform.
     positivity : bool or {"auto", "quick", "van-albada", "first-order", "upwind", "afc"}
         :mod:`fpk_vibro.fem.positivity` (the first three) and
         :mod:`fpk_vibro.fem.afc`, degree 1 only (nodal Q1 density).
@@ -85,10 +93,11 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         by defect correction (does not converge on the hard cases; a
         RuntimeWarning says so).  ``False``: plain Galerkin (order 2 on smooth
         cases, negative next to (±Δ, 0) on hard cases).  Default ``"auto"``:
-        Galerkin, replaced by ``"quick"`` on nx = 64 (or the given nx) × 2 nx
-        cells when the Galerkin density has min p < −1e-6·max p (degree 1,
-        structured quads; otherwise Galerkin is kept and the reason says so).
-        ``sol.info["discretisation"]`` names what ran and
+        Galerkin, with any negative nodal value removed by a local mass-keeping
+        redistribution (:mod:`fpk_vibro.fem.nonnegative`); the L1 and moment
+        changes it made are in ``sol.info["correction"]`` and in the error
+        estimate, and every evaluation (``pdf_joint``, ``pdf_x``, ``pdf_y``,
+        ``pdf_energy``) is ≥ 0.  ``sol.info["discretisation"]`` names what ran and
         ``sol.info["discretisation_reason"]`` why.
     assembly : {"auto", "tensor", "general"}
         Kronecker-product assembly (structured quads) or general skfem assembly.
@@ -98,8 +107,12 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         (``sol.error_estimate()``, which also gives the L1 error of the density)
         are below ``rtol`` (:mod:`fpk_vibro.fem.estimate`); not with mesh, nx,
         ny, degree or positivity.  Refused in one line naming ``rtol`` when the
-        budget, 30 s in all or nx = 4096 would be passed first.  Default: no adaptation; ``sol.error_estimate()`` is still
-        available (one richer solve, on first call).
+        budget, 30 s in all or nx = 4096 would be passed first.  Default: 1e-4
+        when none of mesh, nx, ny, degree, positivity is given, as a best effort
+        (10 s at most; where it is not reached the last estimated level is
+        returned with ``info["under_resolved"]`` and ``info["rtol_not_reached"]``);
+        otherwise no adaptation, and ``sol.error_estimate()`` is still available
+        (one richer solve, on first call).
 
     Returns
     -------
@@ -115,10 +128,15 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     -----
     Every option is declared once in :class:`fpk_vibro.fem.Options`.
     """
+    chosen = (mesh is None and nx is None and ny is None and degree == 1
+              and positivity == "auto" and element == "quad" and assembly != "general")
+    best_effort = rtol is None and chosen
+    if best_effort:
+        rtol = DEFAULT_RTOL
     opts, _ = Options.prepare(system, "stationary", locals())
     if opts.rtol is not None:
         from .estimate import adaptive
-        sol = adaptive(system, opts, opts.rtol)
+        sol = adaptive(system, opts, opts.rtol, best_effort=best_effort)
     else:
         sol = build(system, opts).stationary(opts.solver)
         sol._options = opts

@@ -15,11 +15,10 @@ vector to the mesh DOFs, and which discretisation it is:
   "afc"; stationary only).
 
 ``positivity="auto"`` (the stationary default) builds the Galerkin discretisation;
-:meth:`Discretisation.stationary` accepts its density when min p ≥
-−:data:`~fpk_vibro.fem.options.AUTO_NEGATIVE_TOL`·max p and otherwise (degree 1,
-structured quads, tensor assembly) solves again with the positive "quick"
-generator on nx = :data:`~fpk_vibro.fem.options.AUTO_POSITIVE_NX` (or the given
-nx) × 2 nx cells.  ``sol.info["discretisation"]`` names what ran and
+:meth:`Discretisation.stationary` removes any negative nodal value of its density by
+the local, mass-keeping redistribution of :mod:`fpk_vibro.fem.nonnegative`, whose
+L1 and moment changes are recorded (``info["correction"]``) and added to the error
+estimate.  ``sol.info["discretisation"]`` names what ran and
 ``sol.info["discretisation_reason"]`` why.  In a transient "auto" is Galerkin.
 
 :meth:`Discretisation.stationary` solves for the stationary density and
@@ -45,8 +44,7 @@ from .generator import (
     tensor_index,
 )
 from .mesh import structured_mesh
-from .options import (AUTO_NEGATIVE_TOL, AUTO_POSITIVE_NX, TENSOR_ONLY, load_strip_mesh,
-                      wall_layers)
+from .options import TENSOR_ONLY, load_strip_mesh
 from .solution import FEMSolution
 from .solve import solve_stationary
 
@@ -86,7 +84,7 @@ class Discretisation:
         self.positivity, self.walls = positivity, walls
         self.ranks, self.y_max, self.assembly, self.seconds = ranks, y_max, assembly, seconds
         #: the options of a positivity="auto" build (None otherwise): stationary()
-        #: may switch to the positive generator with them
+        #: corrects the Galerkin density to p >= 0
         self.auto: Any = None
 
     @property
@@ -142,42 +140,22 @@ class Discretisation:
         return sol
 
     def _auto(self, sol: FEMSolution, solver: str) -> FEMSolution:
-        """positivity="auto": keep the Galerkin ``sol`` or switch (module docstring)."""
-        opts = self.auto
+        """positivity="auto": the Galerkin ``sol`` made non-negative by the local,
+        mass-keeping correction of :mod:`fpk_vibro.fem.nonnegative` (module
+        docstring); what it changed is in ``info["correction"]`` and in the error
+        estimate."""
+        from .nonnegative import correct
         ratio = float(sol.dofs.min() / sol.dofs.max())
         sol.info["positivity"] = "auto"
-        if ratio >= -AUTO_NEGATIVE_TOL:
-            sol.info["discretisation_reason"] = (
-                f"auto: Galerkin min p = {ratio:.1e}·max p >= -{AUTO_NEGATIVE_TOL:g}·max p")
-            return sol
-        switchable = (self.degree == 1 and opts.mesh is None and opts.element == "quad"
-                      and self.assembly == "tensor")
-        if not switchable:
-            sol.info["discretisation_reason"] = (
-                f"auto: Galerkin min p = {ratio:.1e}·max p < -{AUTO_NEGATIVE_TOL:g}·max p, "
-                "but the positive generator needs degree 1 on the structured quad mesh "
-                "with tensor assembly: Galerkin kept (negative)")
-            return sol
-        width = float(np.ptp(self.points[0]))
-        thin = [ell for *_, ell in wall_layers(self.system) if ell < 0.05 * width]
-        if thin:
-            sol.info["discretisation_reason"] = (
-                f"auto: Galerkin min p = {ratio:.1e}·max p < -{AUTO_NEGATIVE_TOL:g}·max p, "
-                f"but a wall layer {min(thin):.3g} wide (< 5 % of the strip) is where the "
-                "first-order positive generator errs most (E[H] 50 % off at h = the "
-                "layer, b = -300): Galerkin kept")
-            return sol
-        nx = AUTO_POSITIVE_NX if opts.nx is None else opts.nx
-        ny = 2 * nx if opts.ny is None else opts.ny
-        pos = build(self.system, opts.replace(positivity="quick", nx=nx, ny=ny))
-        out = pos.stationary(solver)
-        out.info.update(
-            positivity="auto", galerkin_min_ratio=ratio,
-            galerkin_seconds=self.seconds + sol.info["solve_seconds"],
-            discretisation_reason=(
-                f"auto: Galerkin ({sol.info['ndofs']} DOFs) went negative, min p = "
-                f"{ratio:.1e}·max p < -{AUTO_NEGATIVE_TOL:g}·max p: switched to the "
-                f"positive generator (QUICK, {nx} × {ny} cells)"))
+        out = correct(sol)
+        if out is sol:
+            out.info["discretisation_reason"] = "auto: Galerkin, non-negative as solved"
+        else:
+            c = out.info["correction"]
+            out.info["discretisation_reason"] = (
+                f"auto: Galerkin (min p = {ratio:.1e}·max p), made non-negative by local "
+                f"mass redistribution: ∫|Δp| = {c['L1']:.1e}, largest moment change "
+                f"{max(v for k, v in c.items() if k.startswith(('E_', 'P_'))):.1e}")
         return out
 
 
@@ -189,7 +167,8 @@ def default_mesh(system: VibroImpactSystem, opts: Any):
     otherwise get ~10⁶ cells in y for nothing).
     """
     dom, nx, ny = opts.grid(system)
-    m, xs, ys = structured_mesh(dom, nx, ny, kind=opts.element, grading=float(opts.grading))
+    m, xs, ys = structured_mesh(dom, nx, ny, kind=opts.element, grading=float(opts.grading),
+                                wall_grading=float(opts.wall_grading or 1.0))
     return dom, m, xs, ys
 
 

@@ -25,7 +25,7 @@ from .. import scales
 from ..model import VibroImpactSystem
 from ..scales import TAIL_MASS
 
-__all__ = ["Wall", "Domain", "domain", "default_y_max", "axis_nodes",
+__all__ = ["Wall", "Domain", "domain", "default_y_max", "axis_nodes", "wall_nodes",
            "structured_mesh", "load_mesh", "wall_restitutions", "TAIL_MASS"]
 
 @dataclass(frozen=True)
@@ -104,8 +104,36 @@ def axis_nodes(lo: float, hi: float, n: int, grading: float = 0.0,
     return out
 
 
+def wall_nodes(dom: Domain, n: int, power: float = 1.0) -> np.ndarray:
+    """``n + 1`` x-nodes on [x0, x1], clustered toward each wall with r < 1.
+
+    Near such a wall the node spacing grows like the distance to it raised to
+    1 − 1/``power`` (x_w − x ∝ s^power in the uniform parameter s; ``power`` = 1 is
+    uniform, as is every end with r = 1).  Why: the density is singular at the
+    corners (x_w, 0) of an inelastic wall (docs/fem_hard_cases.md, §Corner
+    exponent); a graded mesh keeps the corner error from setting the convergence
+    rate of the whole strip (measured in docs/measurements.md, §FE error estimate
+    and rtol).
+    """
+    s = np.linspace(0.0, 1.0, n + 1)
+    left, right = (w.r < 1.0 and power != 1.0 for w in dom.walls)
+    if left and right:
+        xi = 2.0 * s - 1.0
+        u = 0.5 + 0.5 * np.sign(xi) * (1.0 - (1.0 - np.abs(xi)) ** power)
+    elif right:
+        u = 1.0 - (1.0 - s) ** power
+    elif left:
+        u = s ** power
+    else:
+        u = s
+    out = dom.x0 + (dom.x1 - dom.x0) * u
+    out[0], out[-1] = dom.x0, dom.x1
+    return out
+
+
 def structured_mesh(dom: Domain, nx: int, ny: int, *, kind: str = "quad",
-                    grading: float = 0.0) -> tuple[skfem.Mesh, np.ndarray, np.ndarray]:
+                    grading: float = 0.0, wall_grading: float = 1.0
+                    ) -> tuple[skfem.Mesh, np.ndarray, np.ndarray]:
     """Tensor-product mesh of the strip: ``nx × ny`` cells, y = 0 a mesh line.
 
     Parameters
@@ -117,12 +145,14 @@ def structured_mesh(dom: Domain, nx: int, ny: int, *, kind: str = "quad",
         Quadrilaterals, or each quadrilateral split into two triangles.
     grading : float
         ≥ 0; clusters the y-nodes towards y = 0 (see :func:`axis_nodes`).
+    wall_grading : float
+        ≥ 1; clusters the x-nodes toward each wall with r < 1 (see :func:`wall_nodes`).
 
     Returns
     -------
     mesh, xnodes, ynodes
     """
-    xs = axis_nodes(dom.x0, dom.x1, nx)
+    xs = wall_nodes(dom, nx, wall_grading)
     ys = axis_nodes(-dom.y_max, dom.y_max, ny, grading, centre=0.0)
     m = skfem.MeshQuad.init_tensor(xs, ys)
     if kind == "tri":

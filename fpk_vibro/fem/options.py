@@ -20,9 +20,9 @@ from ..options import Options as _Options
 from ..options import PerMode, option
 
 __all__ = [
-    "AUTO_NEGATIVE_TOL",
-    "AUTO_POSITIVE_NX",
     "DEFAULT_NX",
+    "DEFAULT_RTOL",
+    "WALL_GRADING",
     "POSITIVITY",
     "SCHEMES",
     "SOLVERS",
@@ -34,20 +34,21 @@ S, T = ("stationary",), ("transient",)
 SOLVERS = ("auto", "direct", "amg", "amg-sa")
 #: positivity values: the tensor-grid generator's (stationary and transient), then
 #: the algebraic ones (stationary, any mesh).  "auto" (the stationary default):
-#: Galerkin, replaced by the positive "quick" generator when its density goes
-#: below −AUTO_NEGATIVE_TOL·max p (fem.discretisation); in a transient "auto" is
-#: Galerkin (False).
+#: Galerkin made non-negative by a local mass-keeping correction whose changes
+#: enter the error estimate (fem.nonnegative); in a transient "auto" is Galerkin.
 POSITIVITY = (False, True, "auto", "quick", "van-albada", "first-order", "upwind", "afc")
 TENSOR_ONLY = (True, "quick", "van-albada", "first-order")
 SCHEMES = ("bdf2", "theta", "euler")
 #: Default number of cells across the strip in x, per degree (degrees 3 and 4:
 #: the structured tensor mesh only; about the DOFs of Q2 at nx = 48).
 DEFAULT_NX = {1: 128, 2: 48, 3: 32, 4: 24}
-#: positivity="auto": the Galerkin density is accepted when min p ≥ −tol·max p.
-AUTO_NEGATIVE_TOL = 1e-6
-#: positivity="auto": cells across x of the positive generator it switches to when
-#: nx is not given (ny = 2 nx); chosen for about 1–2 s per solve.
-AUTO_POSITIVE_NX = 64
+#: The accuracy goal of a stationary solve given no mesh, nx, ny, degree or
+#: positivity (fem.estimate.adaptive; measured cost: docs/measurements.md).
+DEFAULT_RTOL = 1e-4
+#: The x-grading power toward walls with r < 1 that rtol's meshes use
+#: (fem.mesh.wall_nodes; 2 against 3 and uniform on 20 random scenes:
+#: docs/measurements.md, §FE error estimate and rtol).
+WALL_GRADING = 2.0
 #: Largest c (max G − min G)/D on the strip (the density spans e^this) that the FE
 #: solve is accepted for (measurements: Options._check_wall_layers).
 MAX_CONTRAST = 60.0
@@ -103,22 +104,31 @@ class Options(_Options):
     rtol: float | None = option(None, "accuracy goal: degree 2-4 and nx are chosen until the "
                                 "estimated relative errors of E[H], E[x²], E[y²], P_impact "
                                 "are below it (sol.error_estimate(), which also gives the "
-                                "L1 error); not with mesh, nx, ny, degree or positivity", "float", lo=1e-10, hi=0.5, modes=S,
-                                auto="no adaptation (the estimate is still available: "
-                                     "sol.error_estimate())")
+                                "L1 error; in a transient at every output time, space "
+                                "and time); not with mesh, nx, ny, degree or positivity",
+                                "float", lo=1e-10, hi=0.5,
+                                auto="stationary: 1e-4 (best effort: flagged, not "
+                                     "refused, when not reached) unless mesh, nx, ny or "
+                                     "positivity is given, then no adaptation (the "
+                                     "estimate is still available: sol.error_estimate()); "
+                                     "transient: no adaptation")
     solver: str = option("auto", "linear solver of the stationary system", "choice",
                          choices=SOLVERS, modes=S)
     element: str = option("quad", "structured quadrilaterals or triangles", "choice",
                           choices=("quad", "tri"))
     grading: float = option(0.0, "clustering of the y-nodes towards y = 0 (sinh map)",
                             "float", lo=0.0, hi=20.0)
+    wall_grading: float | None = option(None, "clustering of the x-nodes toward each wall "
+                                        "with r < 1: x_w − x ∝ s^power (1: uniform)",
+                                        "float", lo=1.0, hi=4.0,
+                                        auto="2 in the rtol solve, else 1 (uniform)")
     positivity: bool | str = option(PerMode("auto", False),
                                     "non-negative discretisation (degree 1): the positive "
                                     "tensor-grid generator, or algebraic upwinding / AFC "
-                                    "(stationary, any mesh); \"auto\": Galerkin, switched "
-                                    "to the positive generator (\"quick\", nx = 64 unless "
-                                    "given) when its min p < -1e-6 max p (degree 1, "
-                                    "structured quads; in a transient \"auto\" is Galerkin)",
+                                    "(stationary, any mesh); \"auto\": Galerkin made "
+                                    "non-negative by a local mass-keeping correction whose "
+                                    "changes enter the error estimate (in a transient "
+                                    "\"auto\" is Galerkin)",
                                     "custom", check=_positivity,
                                     allowed="false, true, \"auto\", \"quick\", "
                                             "\"van-albada\", \"first-order\", \"upwind\" "
@@ -169,6 +179,15 @@ class Options(_Options):
         if pos and self.degree != 1:
             raise bad("positivity", "needs degree = 1 (Q1/P1 basis functions are "
                       "non-negative; Q2/P2 are not)")
+        if mode == "transient" and self.rtol is not None:
+            for name in ("mesh", "nx", "ny", "dt", "tol", "discretisation"):
+                if getattr(self, name) is not None:
+                    raise bad(name, "must not be given with rtol (rtol chooses the mesh "
+                              "and the steps; give one or the other)")
+            if self._degree_given or pos:
+                raise bad("degree" if self._degree_given else "positivity",
+                          "must not be given with rtol (the adaptive transient is "
+                          "Galerkin, degrees 2-4)")
         if mode == "transient":
             if pos not in (False,) + TENSOR_ONLY:
                 raise bad("positivity", f"must be false, true, 'quick', 'van-albada' or "
@@ -244,9 +263,11 @@ class Options(_Options):
                           f"{h_y:.3g} (y_max = {dom.y_max:.3g}, ny = {ny}): measured E[H] "
                           "3.3e8 times the true one at y_max = 1e6")
         if system.c > 0 and system.has_barrier:
-            self._check_wall_layers(system, dom, nx, bad)
+            # (rtol chooses nx itself, from the same layers: estimate.start_nx)
+            self._check_wall_layers(system, dom, nx, bad, layers=self.rtol is None)
 
-    def _check_wall_layers(self, system: VibroImpactSystem, dom: Any, nx: int, bad: Any) -> None:
+    def _check_wall_layers(self, system: VibroImpactSystem, dom: Any, nx: int, bad: Any,
+                           layers: bool = True) -> None:
         """Refuse a density pressed against a wall that the FE solve cannot
         represent: spanning more than e^MAX_CONTRAST over the strip, or in a layer
         thinner than a node spacing.
@@ -261,8 +282,8 @@ class Options(_Options):
         """
         import numpy as np
         from ..fem.integrals import potential_range
-        layers = wall_layers(system)
-        if not layers:      # (a low-noise peak inside the strip is a question of nx, ny)
+        found = wall_layers(system)
+        if not found:      # (a low-noise peak inside the strip is a question of nx, ny)
             return
         x = np.linspace(dom.x0, dom.x1, 4001)
         g_lo, g_hi = potential_range(system, np.array([dom.x0]), np.array([dom.x1]))
@@ -275,8 +296,10 @@ class Options(_Options):
                       f"{contrast:.3g} (a={system.a}, b={system.b}, c={system.c}: G falls "
                       f"from {G.max():.3g} to {G.min():.3g} at x = {x[np.argmin(G)]:.3g}; "
                       "at 80 no mesh up to nx = 3000 came within 10 %)")
+        if not layers:
+            return
         h = (dom.x1 - dom.x0) / (nx * self.degree)
-        for side, xw, push, ell in layers:
+        for side, xw, push, ell in found:
             if h > ell:
                 need = math.ceil((dom.x1 - dom.x0) / (self.degree * ell))
                 raise bad("nx", f"must be at least {need} here (a node spacing below the "
@@ -300,6 +323,7 @@ class Options(_Options):
                              where="fem.transient", name="initial")
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "_degree_given", self.degree is not None)
         if self.degree is None:            # frozen: resolved once, here
             object.__setattr__(self, "degree", 1 if self.positivity not in (False, "auto") else 2)
 
@@ -343,11 +367,6 @@ class Options(_Options):
             iterations = {"quick": 20, True: 20, "van-albada": 20, "afc": 10}.get(
                 self.positivity, 1)
             seconds = 0.2 + iterations * factor_s
-            if self.positivity == "auto" and self.degree == 1 and self.mesh is None \
-                    and self.element == "quad" and self.assembly != "general":
-                nxp = AUTO_POSITIVE_NX if self.nx is None else self.nx
-                nyp = 2 * nxp if self.ny is None else self.ny
-                seconds += 20 * 3.4e-7 * float((nxp + 1) * (nyp + 1)) ** 1.3
             # 130 MB: the interpreter with skfem/scipy and the moments' quadrature
             # (peak RSS 150 MiB at 6 k DOFs, 2 × 2000 cells; 776 MiB at 1e5 × 2)
             return Cost(130e6 + lu, n, "DOFs", seconds, key)

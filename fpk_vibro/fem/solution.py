@@ -190,9 +190,15 @@ class FEMSolution(Solution):
         return skfem.asm(skfem.LinearForm(lambda v, w: v), b1)
 
     # -- Solution interface ----------------------------------------------------------
+    def _clip(self, values):
+        """max(values, 0) for a corrected density (``info["nonnegative"]``,
+        :mod:`fpk_vibro.fem.nonnegative`: its dips between the nodes are in the
+        error estimate); a raw Galerkin density is returned as it is."""
+        return np.maximum(values, 0.0) if self._info.get("nonnegative") else values
+
     def pdf_joint(self, x, y):
         """p_h(x, y); zero outside the strip."""
-        return self._eval(x, y)
+        return self._clip(self._eval(x, y))
 
     def pdf_x(self, x):
         """p(x) = ∫ p_h(x, y) dy (exact on tensor quad meshes; module docstring)."""
@@ -205,10 +211,10 @@ class FEMSolution(Solution):
             if inside.any():
                 out[inside] = self._field().line(xb, xb.mesh.p[0], xf[inside],
                                                  P @ self._line_integral(yb))
-            return out.reshape(x.shape)
+            return self._clip(out.reshape(x.shape))
         nodes, w = self._composite(np.unique(self.mesh.p[1]))
         vals = self._eval(x[..., None], nodes)
-        return vals @ w
+        return self._clip(vals @ w)
 
     def pdf_y(self, y):
         """p(y) = ∫ p_h(x, y) dx (exact on tensor quad meshes; module docstring)."""
@@ -221,10 +227,10 @@ class FEMSolution(Solution):
             if inside.any():
                 out[inside] = self._field().line(yb, yb.mesh.p[0], yf[inside],
                                                  P.T @ self._line_integral(xb))
-            return out.reshape(y.shape)
+            return self._clip(out.reshape(y.shape))
         nodes, w = self._composite(np.unique(self.mesh.p[0]))
         vals = self._eval(nodes, y[..., None])
-        return vals @ w
+        return self._clip(vals @ w)
 
     def _composite(self, breaks: np.ndarray, npts: int = 4):
         qb = skfem.CellBasis(skfem.MeshLine(breaks), skfem.ElementLineP0(),
@@ -262,7 +268,7 @@ class FEMSolution(Solution):
             den = np.sqrt(s.a + 0.5 * s.b * A[:, None] ** 2 * (1.0 + np.sin(th) ** 2))
             vals = self._eval(xq, yq) + self._eval(xq, -yq)
             out[idx] = np.sum(vals * jac / den, axis=1)
-        return out.reshape(H.shape)
+        return self._clip(out.reshape(H.shape))
 
     # -- moments and resolution ----------------------------------------------------------
     @property
@@ -286,6 +292,16 @@ class FEMSolution(Solution):
 
     def _record(self, q: dict[str, Any]) -> None:
         diag = integrals.diagnose(q, RESOLUTION_TOL)
+        change = self._info.get("correction") or {}
+        moved = max([float(change.get("L1", 0.0))]
+                    + [float(v) for k, v in change.items() if k in ("E_H", "E_x2", "E_y2")])
+        if moved > RESOLUTION_TOL:       # the non-negative correction changed p this much
+            reason = (f"the non-negative correction changed the density by {moved:.2g} "
+                      f"(L1 or a relative moment) > {RESOLUTION_TOL:g}: Galerkin "
+                      "undershoots strongly here (fem.nonnegative)")
+            old = diag.get("under_resolved_reason") or ""
+            diag = {**diag, "under_resolved": True,
+                    "under_resolved_reason": f"{old}; {reason}" if old else reason}
         self._info.update(diag)
         self._resolution = diag
         if self._estimate is not None:
@@ -332,6 +348,9 @@ class FEMSolution(Solution):
             ``rtol`` (or 1e-3, :data:`RESOLUTION_TOL`, without one).
         """
         if self._estimate is None:
+            if getattr(self, "time", None) is not None:
+                raise ValueError("error_estimate: a transient density has an estimate only "
+                                 "when solved with fem.transient(..., rtol=...)")
             from .estimate import error_estimate
             self._estimate = error_estimate(self)
         self._apply_estimate()

@@ -75,6 +75,7 @@ MAX_FACTORS = 16
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int | None = None,
                element: str = "quad", grading: float = 0.0,
+               wall_grading: float | None = None,
                positivity: bool | str = False) -> Discretisation:
     """Build the mesh and assemble (L, M) exactly as :func:`stationary` does; with
     ``positivity`` (see the module docstring) the positive generator and the
@@ -120,7 +121,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               theta: float = 0.5, tol: float | None = None, progress: bool | None = None,
               discretisation: Discretisation | None = None,
               positivity: bool | str = False, element: str = "quad",
-              grading: float = 0.0) -> list[FEMSolution]:
+              grading: float = 0.0, wall_grading: float | None = None,
+              rtol: float | None = None) -> list[FEMSolution]:
     """Densities at ``times`` from ``initial`` (docs/theory.md, §Transients).
 
     Parameters
@@ -147,7 +149,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         reaches 0.03 % in about a third of the time Q1 (nx = 128) needs for 0.05 %
         (docs/fem_transient.md).  3 and 4 (Q3/Q4) on the structured quad mesh only,
         as in :func:`fpk_vibro.fem.stationary`.
-    nx, ny, mesh, y_max, element, grading
+    nx, ny, mesh, y_max, element, grading, wall_grading
         As in :func:`fpk_vibro.fem.stationary`.
     theta : float
         θ of the θ-scheme, in [1/2, 1].
@@ -158,6 +160,12 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         largest step.  Every step matrix is a rung M − g L of a ladder
         g ∝ 2^(−k/2) and the step length follows from it, so LU factors are reused
         (``_march_adaptive``).  None (default): fixed steps of at most ``dt``.
+    rtol : float, optional
+        Accuracy goal in space and time: degree, nx and the step tolerance are chosen
+        until the estimated relative errors of the moments at every output time are
+        below it (:mod:`fpk_vibro.fem.transient_accuracy`; each density then has
+        ``error_estimate()``).  Not with nx, ny, degree, mesh, dt, tol, positivity or
+        discretisation.
     progress : bool, optional
         A progress bar (:mod:`fpk_vibro.progress`; default: on a terminal or in a
         Jupyter notebook, after 2 s; False: never).
@@ -183,6 +191,9 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     t_out = parse_times(times, "fem.transient")
     gaussian = parse_initial(initial, system) if isinstance(initial, dict) else None
     opts, _ = Options.prepare(system, "transient", locals(), initial=gaussian, times=t_out)
+    if opts.rtol is not None:
+        from .transient_accuracy import adaptive_transient
+        return adaptive_transient(system, initial, t_out, opts.rtol, opts, progress)
     if opts.discretisation is not None:
         positivity = opts.discretisation.positivity
     if positivity == "auto":                 # in a transient "auto" is Galerkin
