@@ -58,6 +58,14 @@ class Wall:
         for name, opt in WALL_FIELDS.items():
             object.__setattr__(self, name, opt.validate(name, getattr(self, name), "Wall"))
 
+    def outgoing(self, v: np.ndarray) -> np.ndarray:
+        """The velocity after an impact at velocity ``v`` (the wall law y⁺ = −r y⁻)."""
+        return -self.r * np.asarray(v, dtype=float)
+
+    def loss(self, v: np.ndarray) -> np.ndarray:
+        """The energy one impact at velocity ``v`` removes: ½ (1 − r²) v²."""
+        return 0.5 * (1.0 - self.r * self.r) * np.square(np.asarray(v, dtype=float))
+
     @classmethod
     def of(cls, value: Any, side: str, where: str | None = "VibroImpactSystem") -> "Wall | None":
         """A Wall from a Wall, a {position, r} table or None (no wall)."""
@@ -338,6 +346,16 @@ class VibroImpactSystem:
         """G(x) = a x²/2 + b x⁴/4 (paper Eq. 4)."""
         x2 = np.square(np.asarray(x, dtype=float))
         return x2 * (0.5 * self.a + 0.25 * self.b * x2)
+
+    def restoring_force(self, x: np.ndarray) -> np.ndarray:
+        """G'(x) = a x + b x³: the spring force, pulling toward x = 0 where positive."""
+        x = np.asarray(x, dtype=float)
+        return x * (self.a + self.b * np.square(x))
+
+    def drift(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ẋ, ẏ) without noise: (y, −c y − G'(x)) (docs/theory.md, §Model)."""
+        y = np.asarray(y, dtype=float)
+        return y, -self.c * y - self.restoring_force(x)
 
     def energy(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """H = y²/2 + G(x) (paper Eq. 3)."""
