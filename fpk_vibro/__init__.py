@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import importlib
 
+from . import _version
 from .model import VibroImpactSystem, Wall
 from .solution import MOMENT_KEYS, Solution
 
@@ -21,19 +22,10 @@ __all__ = ["VibroImpactSystem", "Wall", "Solution", "MOMENT_KEYS",
            "averaging", "exact", "fem", "montecarlo"]
 
 
-def _installed_version() -> str:
-    """The installed distribution's version (``version`` in pyproject.toml, the one
-    place it is written); "0+unknown" when the package runs uninstalled."""
-    from importlib import metadata
-    try:
-        return metadata.version("fpk_vibro")
-    except metadata.PackageNotFoundError:
-        return "0+unknown"
-
-
-#: The package version from the installed metadata; solution files, results.json and
+#: The package version (fpk_vibro._version): solution files, results.json and
 #: ``fpk-vibro --version`` record it.
-__version__ = _installed_version()
+__version__ = _version.__version__
+_installed_version = _version._installed_version
 
 _LAZY = {"averaging", "exact", "fem", "montecarlo", "orbits", "cli", "plotting", "io"}
 

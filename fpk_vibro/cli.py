@@ -21,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import __version__
+from ._version import __version__
 
 _BENCHMARKS = {
     "averaging": "fpk_vibro.benchmarks",

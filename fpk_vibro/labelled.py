@@ -65,7 +65,7 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
         scalar entries of ``sol.info``.
     """
     xr = _xarray()
-    from . import __version__
+    from ._version import __version__
     g = _grids(sol, grids)
     data: dict[str, Any] = {}
     try:

@@ -447,7 +447,7 @@ def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]
                    fault: OSError | None = None) -> dict[str, Any]:
     """results.json (every point: finished, failed or interrupted) and densities.npz;
     after a storage ``fault``, results.json alone (``"status": "failed"``)."""
-    from . import __version__
+    from ._version import __version__
     listed = []
     for i, (params, _) in enumerate(points):
         listed.append(records.get(i) or {"index": i, "parameters": params,

@@ -289,5 +289,5 @@ class Solution(abc.ABC):
 
 
 def _package_version() -> str:
-    from . import __version__
+    from ._version import __version__
     return __version__
