@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ._checks import InputError, at, check_float, invalid
-from .options import REQUIRED, Option
+from .option_schema import REQUIRED, Option
 
 __all__ = ["VibroImpactSystem", "Wall", "BARRIER_KINDS", "FIELDS", "WALL_FIELDS",
            "check_system"]

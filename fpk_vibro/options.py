@@ -17,135 +17,14 @@ times, the quantities, progress) names that place in ``scene``.
 from __future__ import annotations
 
 import dataclasses
-import math
-from dataclasses import dataclass
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
-from ._checks import InputError, check_bool, check_choice, check_float, check_int, invalid
+from ._checks import InputError
+# the schema lives in option_schema (the model declares its fields with it); these
+# names stay importable from here
+from .option_schema import MODES, REQUIRED, Option, PerMode, _Required, _toml, option
 
 __all__ = ["Option", "PerMode", "option", "Options", "MODES", "REQUIRED"]
-
-MODES = ("stationary", "transient")
-
-
-class _Required:
-    """The default of an option that must be given."""
-
-    def __repr__(self) -> str:
-        return "required"
-
-
-REQUIRED = _Required()
-
-
-@dataclass(frozen=True)
-class PerMode:
-    """A default (or reduced size) that differs between stationary and transient runs."""
-    stationary: Any
-    transient: Any
-
-    def __repr__(self) -> str:
-        return f"{self.stationary!r} (transient {self.transient!r})"
-
-
-@dataclass(frozen=True)
-class Option:
-    """One numerical option.
-
-    ``kind`` is "int", "float", "choice", "bool", "text" or "custom" (then
-    ``check(name, value, where)`` validates and ``allowed`` describes it).  ``auto``
-    says what ``None`` means (None is then allowed).  ``modes`` are the runs that use
-    it.  ``reduced`` is the cap of a reduced run ("drop" removes the option).
-    ``scene`` is "" (the key in the method's table), "file" (a path in the scene)
-    or the scene key / CLI flag that sets it.
-    """
-    default: Any
-    doc: str
-    kind: str
-    lo: float = -math.inf
-    hi: float = math.inf
-    lo_open: bool = False
-    hi_open: bool = False
-    choices: tuple = ()
-    even: bool = False
-    unit: str = ""
-    auto: str = ""
-    modes: tuple = MODES
-    reduced: Any = None
-    scene: str = ""
-    check: Callable[[str, Any, str | None], Any] | None = None
-    allowed: str = ""
-    why: str = ""
-
-    def validate(self, name: str, value: Any, where: str | None) -> Any:
-        """The cleaned value, or :class:`InputError` naming ``name`` (and saying why)."""
-        try:
-            return self._validate(name, value, where)
-        except InputError as exc:
-            if not self.why:
-                raise
-            raise InputError(f"{exc} ({self.why})", where=exc.where, name=exc.name) from None
-
-    def default_for(self, mode: str) -> Any:
-        return getattr(self.default, mode) if isinstance(self.default, PerMode) else self.default
-
-    @property
-    def nullable(self) -> bool:
-        return bool(self.auto) or self.default is None
-
-    def _validate(self, name: str, value: Any, where: str | None) -> Any:
-        if value is None:
-            if self.nullable:
-                return None
-            raise invalid(where, name, self.describe(), value)
-        if self.kind == "int":
-            hi = None if math.isinf(self.hi) else int(self.hi)
-            return check_int(name, value, int(self.lo), hi, where=where, even=self.even)
-        if self.kind == "float":
-            return check_float(name, value, self.lo, self.hi, lo_open=self.lo_open,
-                               hi_open=self.hi_open, where=where)
-        if self.kind == "choice":
-            return check_choice(name, value, self.choices, where=where)
-        if self.kind == "bool":
-            return check_bool(name, value, where=where)
-        if self.kind == "text":
-            if not isinstance(value, str) or not value.strip() or len(value) > 4096:
-                raise invalid(where, name, "a non-empty string", value)
-            return value
-        return self.check(name, value, where)
-
-    def describe(self) -> str:
-        """The allowed values, for messages and the README."""
-        if self.kind == "int":
-            text = f"integer in [{int(self.lo)}, {int(self.hi)}]" if math.isfinite(self.hi) \
-                else f"integer >= {int(self.lo)}"
-            text = ("even " if self.even else "") + text
-        elif self.kind == "float":
-            from ._checks import interval
-            text = interval(self.lo, self.hi, self.lo_open, self.hi_open)[2:]
-        elif self.kind == "choice":
-            text = "one of " + ", ".join(_toml(c) for c in self.choices)
-        elif self.kind == "bool":
-            text = "true or false"
-        elif self.kind == "text":
-            text = "a string"
-        else:
-            text = self.allowed
-        return text
-
-
-def _toml(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f'"{value}"'
-    return repr(value)
-
-
-def option(default: Any, doc: str, kind: str, **spec: Any) -> Any:
-    """A dataclass field declaring one :class:`Option` (see the module docstring)."""
-    opt = Option(default, doc, kind, **spec)
-    return dataclasses.field(default=opt.default_for("stationary"), metadata={"option": opt})
 
 
 class Options:
