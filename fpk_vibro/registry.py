@@ -1,0 +1,232 @@
+"""The methods, registered by name behind one contract.
+
+Every part of the package that runs "a method" — the scene parser, ``fpk-vibro
+check``, the runner, results.json, the figures, the capability table — loops over
+:func:`methods`; this module is the only place that names them.
+
+The contract (how to add a method)
+----------------------------------
+A method is a :class:`Method`: a name, the ``modes`` it solves (``"stationary"``,
+``"transient"``, ``"first_passage"``), the ``quantities`` its solutions give, the
+model ``features`` it handles (:data:`FEATURES`), whether its results are sampled
+(Monte Carlo: standard errors), the ``Solution`` kinds it writes, and three callables:
+
+- ``solver(mode)`` → the function ``f(system, **keywords)`` of that mode; transient
+  solvers take ``initial=`` and ``times=``, first-passage solvers ``energy=``,
+  ``start=``, ``times=``; each returns a :class:`fpk_vibro.solution.Solution` (a list
+  of them for a transient);
+- ``options()`` → its :class:`fpk_vibro.options.Options` subclass (the declared
+  numerical keywords, budget and scene table), or None for a method without options;
+- ``check(system, mode, quantities)`` (optional) → a reason it cannot, or None, for
+  rules beyond the features (e.g. the energy density of a double well).
+
+:meth:`Method.supports` raises one :class:`~fpk_vibro._checks.InputError` naming the
+feature (or mode, or quantity) the method lacks and the registered methods that have
+it.  :func:`register` adds a method (a toy one in a few lines:
+``tests/test_registry.py``); the built-in ones are registered below.
+
+Examples
+--------
+>>> from fpk_vibro import methods, VibroImpactSystem
+>>> sorted(methods())
+['averaging', 'exact', 'fem', 'montecarlo']
+>>> methods()["exact"].supports(VibroImpactSystem.paper(r=1.0, D2=0.0))
+>>> methods()["exact"].supports(VibroImpactSystem.paper())
+Traceback (most recent call last):
+...
+fpk_vibro._checks.InputError: exact: does not handle inelastic walls (r < 1); averaging, fem, montecarlo do
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from ._checks import InputError
+from .model import VibroImpactSystem
+
+__all__ = ["Method", "FEATURES", "MODES", "QUANTITIES", "features_of", "methods", "register",
+           "unregister", "capability_table"]
+
+MODES = ("stationary", "transient", "first_passage")
+QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
+#: The model features a method may or may not handle, with what each means.
+FEATURES = {
+    "walls": "walls (impacts)",
+    "inelastic walls": "inelastic walls (r < 1)",
+    "parametric noise": "parametric noise (D2 > 0)",
+    "several wells": "a potential not increasing in |x| on the strip (double well, "
+                     "softening beyond its hump)",
+    "no damping": "no damping (c = 0)",
+}
+
+
+def features_of(system: VibroImpactSystem) -> tuple[str, ...]:
+    """The :data:`FEATURES` of ``system``."""
+    from .orbits import single_well
+    out = []
+    if system.has_barrier:
+        out.append("walls")
+    if any(w.r < 1.0 for _, w in system.walls):
+        out.append("inelastic walls")
+    if system.D2 != 0:
+        out.append("parametric noise")
+    if not single_well(system):
+        out.append("several wells")
+    if system.c == 0:
+        out.append("no damping")
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Method:
+    """One method (module docstring: the contract)."""
+
+    name: str
+    summary: str
+    modes: tuple[str, ...]
+    quantities: tuple[str, ...]
+    features: tuple[str, ...]
+    solver: Callable[[str], Callable[..., Any]] = field(repr=False)
+    options: Callable[[], Any] = field(default=lambda: None, repr=False)
+    sampled: bool = False
+    solution_kinds: tuple[str, ...] = ()
+    check: Callable[[VibroImpactSystem, str, tuple], str | None] | None = field(
+        default=None, repr=False)
+    study: str = ""
+    benchmark: str = ""
+
+    def supports(self, system: VibroImpactSystem, mode: str = "stationary",
+                 quantities: tuple[str, ...] | list[str] = ()) -> None:
+        """None if the method solves ``system`` in ``mode`` for ``quantities``; else
+        :class:`InputError` naming what it lacks and the methods that have it."""
+        def others(test: Callable[[Method], bool]) -> str:
+            names = [m.name for m in methods().values() if m.name != self.name and test(m)]
+            return f"; {', '.join(names)} do" if names else "; no registered method does"
+
+        if mode not in self.modes:
+            raise InputError(f"{self.name}: does not solve {mode} problems"
+                             f"{others(lambda m: mode in m.modes)}", where=self.name,
+                             name="mode")
+        for q in quantities:
+            if q not in self.quantities:
+                raise InputError(f"{self.name}: does not give the quantity {q!r}"
+                                 f"{others(lambda m: q in m.quantities)}", where=self.name,
+                                 name="quantities")
+        for feature in features_of(system):
+            if feature not in self.features:
+                raise InputError(f"{self.name}: does not handle {FEATURES[feature]}"
+                                 f"{others(lambda m: feature in m.features)}",
+                                 where=self.name, name="system")
+        if self.check is not None:
+            why = self.check(system, mode, tuple(quantities))
+            if why:
+                raise InputError(f"{self.name}: {why}", where=self.name, name="system")
+
+
+_REGISTRY: dict[str, Method] = {}
+
+
+def register(method: Method) -> Method:
+    """Add ``method`` (replacing one of the same name); returns it."""
+    if not isinstance(method, Method):
+        raise TypeError(f"register needs a Method; got {type(method).__name__}")
+    _REGISTRY[method.name] = method
+    return method
+
+
+def unregister(name: str) -> None:
+    """Remove a registered method (tests register toy methods)."""
+    _REGISTRY.pop(name, None)
+
+
+def methods() -> dict[str, Method]:
+    """The registered methods by name (a copy: register to add one)."""
+    return dict(_REGISTRY)
+
+
+# -- the built-in methods -------------------------------------------------------------
+def _averaging_solver(mode: str):
+    from . import averaging
+    return {"stationary": averaging.stationary, "transient": averaging.transient,
+            "first_passage": averaging.first_passage}[mode]
+
+
+def _averaging_options():
+    from .averaging.options import Options
+    return Options
+
+
+def _fem_solver(mode: str):
+    from . import fem
+    return {"stationary": fem.stationary, "transient": fem.transient,
+            "first_passage": fem.first_passage}[mode]
+
+
+def _fem_options():
+    from .fem.options import Options
+    return Options
+
+
+def _fem_check(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
+    if "energy" in quantities and not (system.a > 0 or (system.a == 0 and system.b > 0)):
+        return (f"the energy density p(H) needs a > 0, or a = 0 < b (one orbit per energy "
+                f"level); got a={system.a}, b={system.b}: remove 'energy' or fem")
+    return None
+
+
+def _montecarlo_solver(mode: str):
+    from . import montecarlo
+    return {"stationary": montecarlo.stationary, "transient": montecarlo.transient,
+            "first_passage": montecarlo.first_passage}[mode]
+
+
+def _montecarlo_options():
+    from .montecarlo.options import Options
+    return Options
+
+
+def _exact_solver(mode: str):
+    from .exact import gibbs
+    return lambda system, **_: gibbs(system)
+
+
+_ALL = tuple(FEATURES)
+for _m in (
+    Method("averaging", "stochastic averaging of the energy envelope (1-D in H)",
+           MODES, QUANTITIES, tuple(f for f in _ALL if f != "several wells"),
+           _averaging_solver, _averaging_options,
+           solution_kinds=("averaging", "averaging_grid"), study="n_panel ladder",
+           benchmark="averaging"),
+    Method("fem", "finite elements for the 2-D FPK on the strip", MODES, QUANTITIES, _ALL,
+           _fem_solver, _fem_options, solution_kinds=("fem",), check=_fem_check,
+           study="degree and nx ladder", benchmark="fem"),
+    Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts", MODES,
+           QUANTITIES, _ALL, _montecarlo_solver, _montecarlo_options, sampled=True,
+           solution_kinds=("montecarlo",), study="target standard error ladder",
+           benchmark="montecarlo"),
+    Method("exact", "the Gibbs density exp(−(c/D1) H)/Z (r = 1, D2 = 0)", ("stationary",),
+           ("energy", "x", "y", "joint", "moments", "impacts"),
+           ("walls", "several wells"), _exact_solver, solution_kinds=("exact",)),
+):
+    register(_m)
+
+
+def capability_table() -> str:
+    """The Markdown table method × (modes, quantities, model features): ``fpk-vibro
+    methods`` prints it and docs/guide/methods.md holds it (a test keeps them equal)."""
+    cols = list(MODES) + [q for q in QUANTITIES if q not in MODES] + list(FEATURES)
+    head = ["method", "sampled"] + cols
+    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for m in methods().values():
+        cells = [f"`{m.name}`", "yes" if m.sampled else "no"]
+        for c in cols:
+            have = c in m.modes or c in m.quantities or c in m.features
+            cells.append("yes" if have else "–")
+        rows.append("| " + " | ".join(cells) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def replace(method: Method, **changes: Any) -> Method:
+    """A copy of ``method`` with ``changes`` (e.g. to register a variant)."""
+    return dataclasses.replace(method, **changes)
