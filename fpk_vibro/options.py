@@ -22,7 +22,7 @@ from typing import Any, ClassVar
 from ._checks import InputError
 # the schema lives in option_schema (the model declares its fields with it); these
 # names stay importable from here
-from .option_schema import MODES, REQUIRED, Option, PerMode, _Required, _toml, option
+from .option_schema import MODES, REQUIRED, Option, PerMode, _Required, _toml, option  # noqa: F401
 
 __all__ = ["Option", "PerMode", "option", "Options", "MODES", "REQUIRED"]
 

@@ -71,30 +71,3 @@ def coefficients(system: VibroImpactSystem, H: np.ndarray, *, n_theta: int = 48
         m = np.where(T == 0, system.noise_intensity(hi if hi < 0 else lo), m)
         s2 = np.where(T == 0, 0.0, s2)
     return T, m, s2
-
-
-def _gl(lo, hi, t: np.ndarray, gw: np.ndarray):
-    """Gauss–Legendre nodes and weights on [lo, hi] (arrays broadcast; nodes last)."""
-    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    half = 0.5 * (hi - lo)
-    return 0.5 * (hi + lo)[..., None] + half[..., None] * t, half[..., None] * gw
-
-
-def _panel_nodes(edges: np.ndarray, t: np.ndarray, gw: np.ndarray):
-    """Composite Gauss–Legendre on consecutive panels (last axis of ``edges``), flattened."""
-    x, w = _gl(edges[..., :-1], edges[..., 1:], t, gw)
-    shape = x.shape[:-2] + (x.shape[-2] * x.shape[-1],)
-    return x.reshape(shape), w.reshape(shape)
-
-
-def _rate(system: VibroImpactSystem, H: np.ndarray, n_theta: int):
-    """f(H) = (2c J1 + δ)/J2 and the orbit sums ∮ g dt for the moments."""
-    o = orbit_nodes(system, H, n_theta)
-    v2 = o.v ** 2
-    x2 = o.x ** 2
-    J1 = o.integrate(v2)
-    J2 = o.integrate(2.0 * v2 * system.noise_intensity(o.x))
-    f = (2.0 * system.c * J1 + energy_loss(system, H)) / J2
-    sums = {"T": o.period, "x2": 2.0 * o.integrate(x2), "x4": 2.0 * o.integrate(x2 * x2),
-            "y2": 2.0 * J1, "y4": 2.0 * o.integrate(v2 * v2), "x1": 2.0 * o.integrate(o.x)}
-    return f, sums

@@ -35,7 +35,8 @@ from ..model import VibroImpactSystem, check_system
 from ..orbits import energy_floor, orbit_nodes
 from .coefficients import coefficients
 from .stationary import stationary
-from .transient import averaged_operator, energy_faces
+from .energy_grid import energy_faces
+from .transient import averaged_operator
 
 __all__ = ["first_passage", "log10_mean_time"]
 

@@ -10,19 +10,12 @@ from ..budget import Cost
 from ..model import VibroImpactSystem
 from ..options import Options as _Options
 from ..options import option
+from .energy_grid import check_coverage, energy_faces, initial_cell_masses
+from .normalisation import normalise
 
 __all__ = ["Options"]
 
 S, T = ("stationary",), ("transient",)
-
-
-def check_coverage(masses: Any, H_max: float) -> None:
-    """Raise unless the cell masses of the initial density sum to 1 (to 1e-6)."""
-    lost = 1.0 - float(masses.sum())
-    if lost > 1e-6:
-        raise InputError(f"averaging.transient: H_max = {H_max:g} leaves {lost:.2g} of the "
-                         "initial mass outside the energy grid (raise it)",
-                         where="averaging.transient", name="H_max")
 
 
 @dataclass(frozen=True)
@@ -54,8 +47,8 @@ class Options(_Options):
         try:
             require_single_well(system)
             if probe and system.barriers != "both" and system.b == 0 and system.D2 > 0:
-                from .stationary import solve
-                solve(system, self)          # the only case with a power-law tail
+                # the only case with a power-law tail: normalise refuses it
+                normalise(system, self.n_theta, self.n_panel, self.phi_cut)
         except InputError:
             raise
         except ValueError as exc:
@@ -66,7 +59,6 @@ class Options(_Options):
         """A given ``H_max`` must hold the initial density (its energy grid)."""
         if self.H_max is None:
             return
-        from .transient import energy_faces, initial_cell_masses
         faces = energy_faces(system, self.H_max, self.n_cells)
         check_coverage(initial_cell_masses(init, faces, seed=self.seed), self.H_max)
 

@@ -20,10 +20,10 @@ import numpy as np
 from numpy.polynomial import legendre as L
 
 from ..model import VibroImpactSystem
-from ..orbits import energy_floor, wall_energies
-from .coefficients import _gl, _rate
+from ..orbits import energy_floor, energy_loss, orbit_nodes, wall_energies
 
-__all__ = ["Layout", "Regime", "build_regime"]
+__all__ = ["Layout", "Regime", "build_regime", "build_all", "phi_rate", "gauss_legendre",
+           "panel_nodes"]
 
 _MAX_PANELS = 400
 
@@ -88,7 +88,7 @@ class Regime:
     def nodes(self, n_panel: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(t, quadrature weights in t, Φ) at the Gauss nodes of every panel, flattened."""
         tq, gw = L.leggauss(n_panel)
-        t, w = _gl(self.edges[:-1], self.edges[1:], tq, gw)
+        t, w = gauss_legendre(self.edges[:-1], self.edges[1:], tq, gw)
         return t.ravel(), w.ravel(), self(t.ravel())
 
 
@@ -110,9 +110,9 @@ def build_regime(system, H_of, dH_of, t_max, h0, phi_start, phi_cut, n_panel, n_
                 f"< {phi_cut} after {_MAX_PANELS} panels, H = {float(H_of(t)):.3g}); the "
                 f"parametric noise D2={system.D2} may be too strong for a stationary density")
         t1 = min(t + h, t_max)
-        tt, wt = _gl(t, t1, tq, gw)
+        tt, wt = gauss_legendre(t, t1, tq, gw)
         H = H_of(tt)
-        f, sums = _rate(system, H, n_theta)
+        f, sums = phi_rate(system, H, n_theta)
         g = f * dH_of(tt)
         inc = float(np.sum(wt * g))
         if inc > 8.0 and (t1 - t) > 1e-9 * max(t1, 1e-300):
@@ -160,7 +160,7 @@ def build_all(system: VibroImpactSystem, layout: Layout, n_theta: int, n_panel: 
             continue
         E, top = float(layout.kinks[k]), layout.top(k)
         with np.errstate(divide="ignore", invalid="ignore"):
-            f_b = float(_rate(system, np.array([E]), n_theta)[0][0])
+            f_b = float(phi_rate(system, np.array([E]), n_theta)[0][0])
         if np.isfinite(f_b) and f_b > 0:
             h0 = 0.5 / np.sqrt(f_b)
         elif E > layout.floor:
@@ -175,3 +175,30 @@ def build_all(system: VibroImpactSystem, layout: Layout, n_theta: int, n_panel: 
         nodes += more
         H_end = top if s_end >= s_max else E + s_end ** 2
     return low, highs, nodes, H_end, n_low
+
+
+def gauss_legendre(lo, hi, t: np.ndarray, gw: np.ndarray):
+    """Gauss–Legendre nodes and weights on [lo, hi] (arrays broadcast; nodes last)."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    half = 0.5 * (hi - lo)
+    return 0.5 * (hi + lo)[..., None] + half[..., None] * t, half[..., None] * gw
+
+
+def panel_nodes(edges: np.ndarray, t: np.ndarray, gw: np.ndarray):
+    """Composite Gauss–Legendre on consecutive panels (last axis of ``edges``), flattened."""
+    x, w = gauss_legendre(edges[..., :-1], edges[..., 1:], t, gw)
+    shape = x.shape[:-2] + (x.shape[-2] * x.shape[-1],)
+    return x.reshape(shape), w.reshape(shape)
+
+
+def phi_rate(system: VibroImpactSystem, H: np.ndarray, n_theta: int):
+    """f(H) = (2c J1 + δ)/J2 and the orbit sums ∮ g dt for the moments."""
+    o = orbit_nodes(system, H, n_theta)
+    v2 = o.v ** 2
+    x2 = o.x ** 2
+    J1 = o.integrate(v2)
+    J2 = o.integrate(2.0 * v2 * system.noise_intensity(o.x))
+    f = (2.0 * system.c * J1 + energy_loss(system, H)) / J2
+    sums = {"T": o.period, "x2": 2.0 * o.integrate(x2), "x4": 2.0 * o.integrate(x2 * x2),
+            "y2": 2.0 * J1, "y4": 2.0 * o.integrate(v2 * v2), "x1": 2.0 * o.integrate(o.x)}
+    return f, sums

@@ -31,9 +31,9 @@ from numpy.polynomial import legendre as L
 from ..model import VibroImpactSystem
 from ..orbits import orbit_nodes
 from ..solution import MOMENT_KEYS, Rule, Solution, Stored
-from .coefficients import _gl, _panel_nodes, _rate
+from .normalisation import normalise
 from .options import Options
-from .regimes import Layout, Regime, build_all
+from .regimes import Layout, Regime, gauss_legendre, panel_nodes
 
 __all__ = ["stationary", "AveragedSolution"]
 
@@ -150,7 +150,7 @@ class AveragedSolution(Solution):
             # geometric sub-panels toward s = 0 resolve it for every x
             e = reg.edges
             s_edges = np.concatenate([[0.0], e[1] * _GEO, e[1:]])
-            s, ds = _panel_nodes(s_edges, t, gw)
+            s, ds = panel_nodes(s_edges, t, gw)
             Hs = E + s * s
             vv = np.sqrt(2.0 * (Hs - G[below, None]))
             total[below] += np.sum(ds * np.exp(-self.phi(Hs)) * 2.0 * s / vv, axis=-1)
@@ -166,7 +166,7 @@ class AveragedSolution(Solution):
             v1 = np.min(np.where(v_e > 0, v_e, np.inf), axis=-1, keepdims=True)
             v1 = np.where(np.isfinite(v1), v1, 0.0)
             v_e = np.concatenate([np.zeros_like(v1), v1 * _GEO, np.maximum(v_e, v1)], axis=-1)
-        v, dv = _panel_nodes(v_e, t, gw)
+        v, dv = panel_nodes(v_e, t, gw)
         return np.sum(dv * np.exp(-self.phi(G[:, None] + 0.5 * v * v)), axis=-1)
 
     def pdf_y(self, y: np.ndarray) -> np.ndarray:
@@ -202,11 +202,11 @@ class AveragedSolution(Solution):
                 if smooth_start:
                     x_e = _graded_start(x_e)
             if smooth_start:
-                u, du = _gl(0.0, np.sqrt(x_e[:, 1:] - x_e[:, :-1]), t, gw)
+                u, du = gauss_legendre(0.0, np.sqrt(x_e[:, 1:] - x_e[:, :-1]), t, gw)
                 xx = x_e[:, :-1, None] + u * u
                 w = du * 2.0 * u
             else:
-                xx, w = _gl(x_e[:, :-1], x_e[:, 1:], t, gw)
+                xx, w = gauss_legendre(x_e[:, :-1], x_e[:, 1:], t, gw)
             total += np.sum(w * np.exp(-self.phi(K[:, None, None] + self.system.potential(xx))),
                             axis=(-1, -2))
         return total
@@ -345,34 +345,7 @@ def stationary(system: VibroImpactSystem, *, n_theta: int = 48, n_panel: int = 2
 
 def solve(system: VibroImpactSystem, opts: Options) -> AveragedSolution:
     """The closed form of :func:`stationary` for validated ``opts``."""
-    n_theta, n_panel, phi_cut = opts.n_theta, opts.n_panel, opts.phi_cut
-    low, highs, nodes, H_end, n_low = build_all(system, Layout(system), n_theta, n_panel,
-                                                phi_cut)
-    f_end = float(_rate(system, np.array([H_end]), n_theta)[0][0])
-
-    H = np.concatenate([n[0] for n in nodes])
-    w = np.concatenate([n[1] * np.exp(-n[2]) for n in nodes])
-    sums = {k: np.concatenate([n[3][k] for n in nodes]) for k in nodes[0][3]}
-    Z = float(np.sum(w * sums["T"]))
-    mom = {"E_H": float(np.sum(w * sums["T"] * H)) / Z,
-           "E_x2": float(np.sum(w * sums["x2"])) / Z,
-           "E_y2": float(np.sum(w * sums["y2"])) / Z,
-           "E_x4": float(np.sum(w * sums["x4"])) / Z,
-           "E_y4": float(np.sum(w * sums["y4"])) / Z}
-    # a power-law tail reaches Φ ≥ phi_cut only at astronomic H: its last panel
-    # then still carries mass (or moment weight), which a light tail never does
-    last = nodes[-1]
-    w_last = last[1] * np.exp(-last[2]) * last[3]["T"]
-    for name, g in (("the density", 1.0), ("E_H", last[0]), ("E_y4", last[3]["y4"] / last[3]["T"])):
-        share = float(np.sum(w_last * g)) / (Z * (mom.get(name, 1.0)))
-        if not share < 1e-10:
-            raise ValueError(
-                f"averaging: {name} does not converge: the averaged density has a power-law "
-                f"tail (the last energy panel, H ≈ {float(last[0][-1]):.3g}, holds a share "
-                f"{share:.2g}); parametric noise D2={system.D2} is too strong for damping "
-                f"c={system.c} here")
-    if system.has_barrier:
-        k0 = sum(n[0].size for n in nodes[:n_low])
-        mom["P_impact"] = float(np.sum(w[k0:] * sums["T"][k0:])) / Z
-    return AveragedSolution(system, n_theta=n_theta, n_panel=n_panel, phi_cut=float(phi_cut),
-                            regimes=(low, *highs), Z=Z, H_end=H_end, f_end=f_end, moments=mom)
+    n = normalise(system, opts.n_theta, opts.n_panel, opts.phi_cut)
+    return AveragedSolution(system, n_theta=opts.n_theta, n_panel=opts.n_panel,
+                            phi_cut=float(opts.phi_cut), regimes=n.regimes, Z=n.Z,
+                            H_end=n.H_end, f_end=n.f_end, moments=n.moments)

@@ -20,55 +20,18 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 import numpy as np
-from scipy import integrate, sparse, special
+from scipy import integrate, sparse
 
-from ..initial import InitialCondition, parse_initial, parse_times
+from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..orbits import orbit_nodes
 from .coefficients import coefficients
+from .energy_grid import check_coverage, energy_faces, initial_cell_masses
 from .grid_solution import EnergyGridSolution
-from .options import Options, check_coverage
-from .regimes import Layout
+from .options import Options
 from .stationary import AveragedSolution, solve
 
 __all__ = ["transient", "energy_faces", "averaged_operator", "initial_cell_masses"]
-
-
-def energy_faces(system: VibroImpactSystem, H_max: float, n_cells: int) -> np.ndarray:
-    """Cell faces on [floor, H_max]; every wall energy G(x_w) < H_max is a face, with
-    cells uniform in s = sqrt(H − G(x_w)) above it (graded toward it from above).
-
-    A strip containing x = 0 starts with cells uniform in H from 0; a preloaded
-    strip starts at its floor, a wall energy, with cells uniform in s.
-    """
-    lay = Layout(system)
-    kinks = [float(E) for E in lay.kinks if lay.floor < E < H_max]
-    if lay.A_max is not None and len(kinks) <= 1:
-        Hb = system.barrier_energy
-        if not (system.has_barrier and Hb < H_max):
-            return np.linspace(0.0, H_max, n_cells + 1)
-        # above G(Δ) uniform in s = sqrt(H − G(Δ)): p(H) ~ (H − G(Δ))^½ there
-        n1 = min(max(8, round(n_cells * np.sqrt(Hb / H_max))), n_cells - 8)
-        s = np.linspace(0.0, np.sqrt(H_max - Hb), n_cells - n1 + 1)[1:]
-        return np.concatenate([np.linspace(0.0, Hb, n1 + 1), Hb + s * s])
-    B = np.array([lay.floor, *kinks, H_max])
-    in_s = [lay.A_max is None] + [True] * len(kinks)
-    n = _share(n_cells, np.sqrt(np.diff(B)))
-    faces = [B[:1]]
-    for lo, hi, k, s_var in zip(B[:-1], B[1:], n, in_s):
-        seg = (lo + np.linspace(0.0, np.sqrt(hi - lo), k + 1) ** 2 if s_var
-               else np.linspace(lo, hi, k + 1))
-        seg[-1] = hi
-        faces.append(seg[1:])
-    return np.concatenate(faces)
-
-
-def _share(n_cells: int, weights: np.ndarray) -> np.ndarray:
-    """n_cells split in proportion to ``weights``, at least min(8, n_cells // len) each."""
-    least = min(8, n_cells // weights.size)
-    n = np.maximum(least, np.round(n_cells * weights / weights.sum()).astype(int))
-    n[np.argmax(n)] += n_cells - n.sum()
-    return n
 
 
 def averaged_operator(system: VibroImpactSystem, faces: np.ndarray,
@@ -91,42 +54,6 @@ def averaged_operator(system: VibroImpactSystem, faces: np.ndarray,
     diag[:-1] -= k * r_left / h[:-1]
     diag[1:] -= k * r_right / h[1:]
     return sparse.diags([lo, diag, up], [-1, 0, 1], format="csr")
-
-
-def initial_cell_masses(init: InitialCondition, faces: np.ndarray, *, n_samples: int = 400_000,
-                        seed: int = 0) -> np.ndarray:
-    """P(H ∈ cell) under the initial condition: exact CDF differences for the Gaussian form.
-
-    F(H) = P(H(X, Y) ≤ H) = E_X[P(|Y − 0| ≤ sqrt(2(H − G(X))))]; a zero std in a
-    component makes it a point mass there.  A sampler callable is histogrammed
-    from ``n_samples`` draws of ``numpy.random.default_rng(seed)``.
-    """
-    system = init.system
-    if not init.is_gaussian:
-        x, y = init.sample(n_samples, np.random.default_rng(seed))
-        H = system.energy(x, y)
-        counts, _ = np.histogram(np.clip(H, faces[0], faces[-1]), bins=faces)
-        return counts / n_samples
-    (mx, my), (sx, sy) = init.mean, init.std
-
-    def p_y(G: np.ndarray) -> np.ndarray:   # P(Y²/2 ≤ H − G) for every face H
-        s = np.sqrt(2.0 * np.maximum(faces - G, 0.0))
-        if sy == 0:
-            return (np.abs(my) <= s).astype(float) * (faces >= G)
-        return special.ndtr((s - my) / sy) - special.ndtr((-s - my) / sy)
-
-    if sx == 0:
-        F = p_y(system.potential(mx))
-    else:
-        lo, hi = system.x_bounds
-        a, b = max(lo, mx - 12 * sx), min(hi, mx + 12 * sx)
-        t, w = np.polynomial.legendre.leggauss(64)
-        edges = np.linspace(a, b, 33)
-        xs = (0.5 * (edges[1:] + edges[:-1])[:, None] + 0.5 * np.diff(edges)[:, None] * t).ravel()
-        ws = (0.5 * np.diff(edges)[:, None] * w).ravel() * np.exp(-0.5 * ((xs - mx) / sx) ** 2)
-        ws /= ws.sum()
-        F = np.sum(ws[:, None] * p_y(system.potential(xs)[:, None]), axis=0)
-    return np.diff(F)
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
