@@ -58,7 +58,7 @@ def impact_statistics(sol) -> dict[str, dict[str, float]]:
         m1, m2 = float(f @ u), float(f @ (u * u))
         out[side] = {"rate": nu, "mean_speed": m1 / nu if nu > 0 else float("nan"),
                      "mean_square_speed": m2 / nu if nu > 0 else float("nan"),
-                     "energy_rate": 0.5 * (1.0 - wall.r ** 2) * m2}
+                     "energy_rate": float(f @ wall.loss(u))}
     return out
 
 

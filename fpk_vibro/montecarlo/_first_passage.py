@@ -240,8 +240,7 @@ def simulate(system: VibroImpactSystem, H_c: float, xs: np.ndarray, ys: np.ndarr
     horizon in steps).
     """
     n, nb = xs.size, rng.shape[0]
-    p0, ip = S.step_params(system, dt, max_impacts)
-    p = np.concatenate([p0, [system.D1, system.D2]])
+    p, ip = S.step_params(system, dt, max_impacts)
     home = S.block_starts(n, nb)
     order, starts = np.arange(n, dtype=np.int64), home.copy()
     ks = np.zeros(n, dtype=np.int64)
@@ -255,7 +254,8 @@ def simulate(system: VibroImpactSystem, H_c: float, xs: np.ndarray, ys: np.ndarr
         rounds += 1
         for b0 in range(0, nb, wave):
             run_blocks(FK._fp_block, min(wave, nb - b0),
-                       (b0, order, starts, xs, ys, ks, T, status, rng, p, ip, float(H_c),
+                       (b0, order, starts, xs, ys, ks, T, status, rng, p, ip,
+                        float(system.D1), float(system.D2), float(H_c),
                         int(kmax), bool(bridge), counts), threads)
             if prog is not None:
                 prog.update(min(b0 + wave, nb) / nb, f"round {rounds}, horizon "

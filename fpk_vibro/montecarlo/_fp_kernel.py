@@ -47,9 +47,6 @@ from . import _kernel as K
 from ._flight import _flight
 from ._rng import FASTMATH, _next, _normal
 
-#: Extra slots of the parameter vector (after the stationary kernel's): D1, D2.
-P_D1, P_D2 = K.NP, K.NP + 1
-NP = K.NP + 2
 #: ``status`` of a path: still inside at the horizon (parked), exited, or NaN state.
 ALIVE, EXITED, FAILED = 0, 1, 2
 #: Bridge exponents beyond this (crossing probability below e⁻¹⁶ ≈ 1.1e-7 in the step)
@@ -153,31 +150,29 @@ def _load(j, i, xs, ys, xa, va, ids, hh, a, bcub, hc, yo, bo):
 
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
-def _fp_block(b, b0, order, starts, xs, ys, ks, tout, status, rng, p, ip, hc, kmax,
-              bridge, counts):
+def _fp_block(b, b0, order, starts, xs, ys, ks, tout, status, rng, p, ip, d1, d2, hc,
+              kmax, bridge, counts):
     """Block b0 + b of :func:`._first_passage.simulate`: its queue
     ``order[starts[b0+b]:starts[b0+b+1]]`` of path indices, each simulated from
     (xs, ys) after ks steps until it exits or reaches ``kmax`` steps (module
     docstring).  ``counts[b0+b]`` gets the path-steps done, the exits seen at a step
     end or an impact, and those by the bridge."""
     bb = b0 + b
-    a = p[K.P_A]
-    bcub = p[K.P_B]
-    hh = p[K.P_HH]
-    ec = p[K.P_EC]
-    sd0 = p[K.P_SD0]
-    d1s2 = p[K.P_D1S2]
-    d2s2 = p[K.P_D2S2]
-    lo = p[K.P_LO]
-    hi = p[K.P_HI]
-    rlo = p[K.P_RL]
-    rhi = p[K.P_R]
-    flo = p[K.P_FLO]
-    fhi = p[K.P_FHI]
-    d1 = p[P_D1]
-    d2 = p[P_D2]
-    has_d2 = ip[K.I_D2] != 0
-    maxk = ip[K.I_MAXK]
+    a = p.a
+    bcub = p.b
+    hh = p.hh
+    ec = p.ec
+    sd0 = p.sd0
+    d1s2 = p.d1s2
+    d2s2 = p.d2s2
+    lo = p.lo
+    hi = p.hi
+    rlo = p.r_left
+    rhi = p.r_right
+    flo = p.f_lo
+    fhi = p.f_hi
+    has_d2 = ip.has_d2 != 0
+    maxk = ip.max_impacts
     dt = 2.0 * hh
     cut2 = 0.5 * BRIDGE_CUT * dt
     ha = 2.0 * hh * a

@@ -24,10 +24,10 @@ every path as if no wall were hit and flags the paths whose flights left the
 strip; only those (~2 % of path-steps in the paper's case) are redone by the
 scalar step with exact impact handling (:func:`_step_walls`).
 
-``p`` (float64 parameter vector) and ``ip`` (int64 flag vector) are laid out by
-the ``P_*`` / ``I_*`` indices below.  A side without a wall has ``P_LO`` = −inf
-(``P_HI`` = +inf), so no flight crosses it: the kernel needs no case for which
-walls exist (``I_MODE`` only records it).
+``p`` and ``ip`` are the step's records :class:`._params.StepParams` (floats) and
+:class:`._params.StepFlags` (integers), read by field name.  A side without a wall
+has ``p.lo`` = −inf (``p.hi`` = +inf), so no flight crosses it: the kernel needs no
+case for which walls exist (``ip.mode`` only records it).
 """
 from __future__ import annotations
 
@@ -43,20 +43,14 @@ from ._flight import LEFT, NW, RIGHT, W_N, W_Q, W_U, _flight
 from ._rng import FASTMATH, _floor_block, _normal
 from ._threads import run_blocks
 
-# float parameters (P_LO, P_HI: the walls x_L, x_R; P_RL, P_R: their restitutions)
-P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD = range(11)
-P_H0, P_HIW, P_X0, P_XIW, P_Y0, P_YIW, P_JX0, P_JXIW, P_JY0, P_JYIW = range(11, 21)
-P_FLO, P_FHI, P_RL = 21, 22, 23
-P_UWL, P_UWR = 24, 25        # inverse bin widths of the impact-speed histograms
-NP = 26
-# integer flags
-I_MODE, I_D2, I_MAXK = range(3)
-NI = 3
-# moment accumulator columns
-M_N, M_H, M_X2, M_Y2, M_X4, M_Y4, M_PIMP, M_OVH, M_OVX, M_OVY, M_OVJ, M_X = range(12)
-NM = 12
-# which walls exist (I_MODE; the kernel itself does not need it)
-MODE_NONE, MODE_RIGHT, MODE_BOTH, MODE_LEFT = 0, 1, 2, 3
+# the step's records (:mod:`._params`; their field positions and MODE_* stay
+# importable from here) and the sampling (:mod:`._sampling`)
+from ._params import (I_D2, I_MAXK, I_MODE, MODE_BOTH, MODE_LEFT, MODE_NONE,  # noqa: F401
+                      MODE_RIGHT, NI, NP, P_A, P_B, P_D1S2, P_D2S2, P_EC, P_FHI, P_FLO, P_GD,
+                      P_H0, P_HH, P_HI, P_HIW, P_JX0, P_JXIW, P_JY0, P_JYIW, P_LO, P_R, P_RL,
+                      P_SD0, P_UWL, P_UWR, P_X0, P_XIW, P_Y0, P_YIW)
+from ._sampling import (M_H, M_N, M_OVH, M_OVJ, M_OVX, M_OVY, M_PIMP, M_X, M_X2,  # noqa: F401
+                        M_X4, M_Y2, M_Y4, NM, _hist_index, _sample, snapshot)
 
 
 @intrinsic
@@ -74,110 +68,6 @@ def _fma(typingctx, a, b, c):
         fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
         return builder.call(fn, args)
     return sig, codegen
-
-
-@njit(cache=True, fastmath=FASTMATH, inline="always")
-def _hist_index(v, v0, inv_w, nb):
-    """Bin of v in [v0, v0 + nb/inv_w] (right end included), or −1 outside."""
-    u = (v - v0) * inv_w
-    if not (u >= 0.0):
-        return -1
-    k = int(u)
-    if k >= nb:
-        # v at the right end up to rounding (e.g. a path resting on x = Δ)
-        if u <= nb * (1.0 + 1e-12):
-            return nb - 1
-        return -1
-    return k
-
-
-@njit(cache=True, fastmath=FASTMATH)
-def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
-    """Add the states x = xv[:n], y = vv[:n] + kick F(x) (``kick`` = h/2 for the
-    kick-merged state of :func:`_smooth_sweep`, 0 for plain states) as samples of
-    block b: the requested
-    histograms, the moment sums (``mom[b]``, overflow counts and Σx included) and
-    the range of x (``xext[b]``).
-
-    Called once per sweep, not per path, and written out without array-taking
-    helpers: an inlined helper receiving arrays costs numba a reference-count
-    increment and decrement per call (~30 ns per sample, measured).
-    """
-    a = p[P_A]
-    bb = p[P_B]
-    gd = p[P_GD]
-    nbh = hH.shape[1]
-    nbx = hx.shape[1]
-    nby = hy.shape[1]
-    njx = hj.shape[1]
-    njy = hj.shape[2]
-    cH = 0.0
-    cx2 = 0.0
-    cy2 = 0.0
-    cx4 = 0.0
-    cy4 = 0.0
-    cP = 0.0
-    cx = 0.0
-    oH = 0.0
-    ox = 0.0
-    oy = 0.0
-    oj = 0.0
-    xmin = xext[b, 0]
-    xmax = xext[b, 1]
-    for j in range(n):
-        x = xv[j]
-        x2 = x * x
-        y = vv[j] - kick * (a + bb * x2) * x
-        y2 = y * y
-        H = 0.5 * y2 + x2 * (0.5 * a + 0.25 * bb * x2)
-        if nbh > 0:
-            k = _hist_index(H, p[P_H0], p[P_HIW], nbh)
-            if k >= 0:
-                hH[b, k] += 1.0
-            else:
-                oH += 1.0
-        if nbx > 0:
-            k = _hist_index(x, p[P_X0], p[P_XIW], nbx)
-            if k >= 0:
-                hx[b, k] += 1.0
-            else:
-                ox += 1.0
-        if nby > 0:
-            k = _hist_index(y, p[P_Y0], p[P_YIW], nby)
-            if k >= 0:
-                hy[b, k] += 1.0
-            else:
-                oy += 1.0
-        if njx > 0:
-            kx = _hist_index(x, p[P_JX0], p[P_JXIW], njx)
-            ky = _hist_index(y, p[P_JY0], p[P_JYIW], njy)
-            if kx >= 0 and ky >= 0:
-                hj[b, kx, ky] += 1.0
-            else:
-                oj += 1.0
-        cH += H
-        cx2 += x2
-        cy2 += y2
-        cx4 += x2 * x2
-        cy4 += y2 * y2
-        cP += 1.0 if H > gd else 0.0
-        cx += x
-        xmin = min(xmin, x)
-        xmax = max(xmax, x)
-    mom[b, M_N] += n
-    mom[b, M_H] += cH
-    mom[b, M_X2] += cx2
-    mom[b, M_Y2] += cy2
-    mom[b, M_X4] += cx4
-    mom[b, M_Y4] += cy4
-    mom[b, M_PIMP] += cP
-    mom[b, M_OVH] += oH
-    mom[b, M_OVX] += ox
-    mom[b, M_OVY] += oy
-    mom[b, M_OVJ] += oj
-    mom[b, M_X] += cx
-    xext[b, 0] = xmin
-    xext[b, 1] = xmax
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
@@ -273,24 +163,24 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     ``imp[b]`` and ``wimp[b]`` once, at the end; impact speeds go to ``speeds[b]``
     (a histogram per wall, :mod:`._flight`; no column: not kept).
     """
-    a = p[P_A]
-    bcub = p[P_B]
-    hh = p[P_HH]
-    ec = p[P_EC]
-    sd0 = p[P_SD0]
-    d1s2 = p[P_D1S2]
-    d2s2 = p[P_D2S2]
-    lo = p[P_LO]
-    hi = p[P_HI]
-    rlo = p[P_RL]
-    rhi = p[P_R]
-    flo = p[P_FLO]
-    fhi = p[P_FHI]
+    a = p.a
+    bcub = p.b
+    hh = p.hh
+    ec = p.ec
+    sd0 = p.sd0
+    d1s2 = p.d1s2
+    d2s2 = p.d2s2
+    lo = p.lo
+    hi = p.hi
+    rlo = p.r_left
+    rhi = p.r_right
+    flo = p.f_lo
+    fhi = p.f_hi
     hu = speeds[b]
-    iwl = p[P_UWL]
-    iwr = p[P_UWR]
-    has_d2 = ip[I_D2] != 0
-    maxk = ip[I_MAXK]
+    iwl = p.u_iw_left
+    iwr = p.u_iw_right
+    has_d2 = ip.has_d2 != 0
+    maxk = ip.max_impacts
     lo_t = lo                       # ∓inf where there is no wall
     hi_t = hi
     s0 = rng[b, 0]
@@ -398,7 +288,8 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     n_steps, step0, sample_every : int
         A sample is taken after step k (0-based within this call) when
         ``(step0 + k + 1) % sample_every == 0``; ``sample_every = 0`` disables it.
-    p, ip : parameter vectors (module docstring).
+    p, ip : StepParams, StepFlags
+        The step's records (module docstring).
     mom : float64[n_blocks, NM]
         Per-block sums of the sampled moments (``M_*`` columns).
     imp : float64[n_blocks, 2]
@@ -416,7 +307,7 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         right).  Default: not kept.
     speeds : float64[n_blocks, 2, m], optional
         Per-block impact-speed histograms, added to (:mod:`._flight`; bin widths
-        1/``p[P_UWL]``, 1/``p[P_UWR]``, column m − 1 the speeds beyond).  Default
+        1/``p.u_iw_left``, 1/``p.u_iw_right``, column m − 1 the speeds beyond).  Default
         (or m = 0): not kept.
     """
     if walls is None:
@@ -426,16 +317,6 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     run_blocks(_run_block, rng.shape[0], (xs, ys, rng, starts, n_steps, step0,
                                           sample_every, p, ip, mom, imp, xext,
                                           hH, hx, hy, hj, walls, speeds), threads)
-
-
-@njit(cache=True, fastmath=FASTMATH)
-def snapshot(xs, ys, starts, p, mom, xext, hH, hx, hy, hj):
-    """Accumulate the current states of all paths once (transient densities;
-    cheap, so serial)."""
-    for b in range(starts.shape[0] - 1):
-        i0 = starts[b]
-        i1 = starts[b + 1]
-        _sample(xs[i0:i1], ys[i0:i1], i1 - i0, 0.0, p, b, mom, xext, hH, hx, hy, hj)
 
 
 def normals_floor(rng, per_block, threads=None):

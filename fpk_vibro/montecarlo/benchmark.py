@@ -57,7 +57,7 @@ def _kernel_setup(system, n_paths, n_batches, seed):
     xs = np.zeros(n_paths)
     ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
     hist = S.Histograms(system, QUANTITIES, S.check_bins("bins", 100, "bench"), n_batches, 1.5)
-    hist.fill_params(p)
+    p = hist.with_bins(p)
     mom = np.zeros((n_batches, K.NM))
     imp = np.zeros((n_batches, 2))
     xext = np.tile([np.inf, -np.inf], (n_batches, 1))

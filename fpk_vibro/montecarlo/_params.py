@@ -1,0 +1,96 @@
+"""The parameters of one Monte Carlo step size, as the compiled kernels take them.
+
+:func:`step_params` builds them in one place: a :class:`StepParams` record of
+floats (the model, the step's coefficients, the walls and the histogram bins) and a
+:class:`StepFlags` record of integers.  numba passes named tuples by value and
+the kernels read the fields by name.
+
+A side without a wall has ``lo`` = −inf (``hi`` = +inf), so no flight crosses it:
+the kernels need no case for which walls exist (``StepFlags.mode`` only records
+it).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from ..model import VibroImpactSystem
+
+__all__ = ["StepParams", "StepFlags", "step_params"]
+
+# which walls exist (StepFlags.mode)
+MODE_NONE, MODE_RIGHT, MODE_BOTH, MODE_LEFT = 0, 1, 2, 3
+
+
+class StepParams(NamedTuple):
+    """The float parameters of a step of size h (all float64, so numba types the
+    record as one homogeneous tuple)."""
+    a: float                #: linear stiffness
+    b: float                #: cubic stiffness
+    hh: float               #: h/2
+    ec: float               #: e^{−c h}
+    sd0: float              #: sqrt(D1 s²), s² = (1 − e^{−2ch})/c: the OU kick without D2
+    d1s2: float             #: D1 s²
+    d2s2: float             #: D2 s²
+    lo: float               #: the left wall x_L (−inf: none)
+    hi: float               #: the right wall x_R (+inf: none)
+    r_right: float          #: restitution of the right wall
+    barrier_energy: float   #: energy above which a path can impact (P_impact)
+    h0: float = 0.0         #: energy histogram: first edge and inverse bin width
+    h_iw: float = 0.0
+    x0: float = 0.0         #: x histogram
+    x_iw: float = 0.0
+    y0: float = 0.0         #: y histogram
+    y_iw: float = 0.0
+    jx0: float = 0.0        #: joint histogram, x axis
+    jx_iw: float = 0.0
+    jy0: float = 0.0        #: joint histogram, y axis
+    jy_iw: float = 0.0
+    f_lo: float = 0.0       #: the force F(x_L) at the left wall (0: none)
+    f_hi: float = 0.0       #: F(x_R)
+    r_left: float = 1.0     #: restitution of the left wall
+    u_iw_left: float = 0.0  #: inverse bin widths of the impact-speed histograms
+    u_iw_right: float = 0.0
+
+
+class StepFlags(NamedTuple):
+    """The integer parameters of a step."""
+    mode: int               #: which walls exist (``MODE_*``)
+    has_d2: int             #: 1 with parametric noise D2 > 0
+    max_impacts: int        #: impacts allowed per free-flight sub-step
+
+
+def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
+                ) -> tuple[StepParams, StepFlags]:
+    """The kernels' records for one step size (histogram bins left 0:
+    :meth:`fpk_vibro.montecarlo._histograms.Histograms.with_bins`)."""
+    c = system.c
+    s2 = -math.expm1(-2.0 * c * dt) / c if c > 0 else 2.0 * dt   # Var of OU / D
+    lo, hi = system.x_bounds                  # ∓inf where there is no wall
+    f_lo, f_hi = (-float(system.restoring_force(xb)) if math.isfinite(xb) else 0.0
+                  for xb in (lo, hi))
+    p = StepParams(
+        a=float(system.a), b=float(system.b), hh=float(0.5 * dt), ec=math.exp(-c * dt),
+        sd0=math.sqrt(system.D1 * s2), d1s2=float(system.D1 * s2),
+        d2s2=float(system.D2 * s2), lo=float(lo), hi=float(hi),
+        r_right=float(system.right.r) if system.right is not None else 1.0,
+        barrier_energy=float(system.barrier_energy), f_lo=f_lo, f_hi=f_hi,
+        r_left=float(system.left.r) if system.left is not None else 1.0)
+    flags = StepFlags(
+        mode={"none": MODE_NONE, "right": MODE_RIGHT, "both": MODE_BOTH,
+              "left": MODE_LEFT}[system.barriers],
+        has_d2=1 if system.D2 > 0 else 0, max_impacts=int(max_impacts))
+    return p, flags
+
+
+def _positions(*names: str) -> tuple[int, ...]:
+    return tuple(StepParams._fields.index(n) for n in names)
+
+
+# the field positions, for code that indexes the record (the tests' scalar references)
+(P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD, P_H0, P_HIW, P_X0,
+ P_XIW, P_Y0, P_YIW, P_JX0, P_JXIW, P_JY0, P_JYIW, P_FLO, P_FHI, P_RL, P_UWL,
+ P_UWR) = range(len(StepParams._fields))
+NP = len(StepParams._fields)
+I_MODE, I_D2, I_MAXK = range(len(StepFlags._fields))
+NI = len(StepFlags._fields)
