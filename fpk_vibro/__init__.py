@@ -16,9 +16,10 @@ import importlib
 
 from . import _version
 from .model import VibroImpactSystem, Wall
+from .registry import methods
 from .solution import MOMENT_KEYS, Solution
 
-__all__ = ["VibroImpactSystem", "Wall", "Solution", "MOMENT_KEYS",
+__all__ = ["VibroImpactSystem", "Wall", "Solution", "MOMENT_KEYS", "methods",
            "averaging", "exact", "fem", "montecarlo"]
 
 
@@ -27,10 +28,14 @@ __all__ = ["VibroImpactSystem", "Wall", "Solution", "MOMENT_KEYS",
 __version__ = _version.__version__
 _installed_version = _version._installed_version
 
-_LAZY = {"averaging", "exact", "fem", "montecarlo", "orbits", "cli", "plotting", "io"}
+#: Submodules imported on first use, by attribute name: the application wing's
+#: command line and figures live in :mod:`fpk_vibro.app`.
+_LAZY = {"averaging": ".averaging", "exact": ".exact", "fem": ".fem",
+         "montecarlo": ".montecarlo", "orbits": ".orbits", "io": ".io", "app": ".app",
+         "cli": ".app.cli", "plotting": ".app.plotting"}
 
 
 def __getattr__(name: str):
     if name in _LAZY:
-        return importlib.import_module(f".{name}", __name__)
+        return importlib.import_module(_LAZY[name], __name__)
     raise AttributeError(f"module 'fpk_vibro' has no attribute {name!r}")

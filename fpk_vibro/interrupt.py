@@ -1,84 +1,9 @@
-"""SIGINT and SIGTERM as one exception, so that a run can stop cleanly on either.
+"""Deprecated path: fpk_vibro.interrupt moved to fpk_vibro.app.interrupt (kept for one release)."""
+import sys
+import warnings
 
-Within :func:`signals_handled` both signals raise :class:`Interrupted` in the main
-thread (SIGTERM otherwise kills the process without any cleanup).  The solvers
-already stop on ``KeyboardInterrupt`` (a subclass) and return what they
-finished; :func:`received` tells the runner which signal stopped them, and the
-command line exits with 128 + its number (130 for SIGINT, 143 for SIGTERM).
-"""
-from __future__ import annotations
+from .app import interrupt as _module
 
-import contextlib
-import signal
-import threading
-from typing import Iterator
-
-__all__ = ["Interrupted", "signals_handled", "received", "worker_init"]
-
-_received: list[int] = []
-
-
-class Interrupted(KeyboardInterrupt):
-    """A run stopped by a signal; ``signum`` says which."""
-
-    def __init__(self, signum: int = signal.SIGINT) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
-
-
-def received() -> int | None:
-    """The signal received within the current :func:`signals_handled`, if any."""
-    return _received[-1] if _received else None
-
-
-def _raise(signum: int, frame) -> None:
-    _received.append(signum)
-    raise Interrupted(signum)
-
-
-@contextlib.contextmanager
-def signals_handled() -> Iterator[None]:
-    """SIGINT and SIGTERM raise :class:`Interrupted` (main thread only; else a no-op)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    _received.clear()
-    old = {s: signal.signal(s, _raise) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
-
-
-def worker_init(parent: int | None = None) -> None:
-    """For worker processes: the parent decides; SIGINT ignored, SIGTERM ends at once.
-
-    With ``parent`` (its pid) the worker also dies with it: ``PR_SET_PDEATHSIG``
-    (SIGKILL) on Linux, and a thread that checks the parent pid every second
-    elsewhere (or if the parent died before the call).
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
-    if parent is None:
-        return
-    import os
-    import sys
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(1, signal.SIGKILL, 0, 0, 0)          # PR_SET_PDEATHSIG
-        except (OSError, AttributeError):
-            pass
-    if os.getppid() != parent:          # it died before prctl
-        os._exit(1)
-
-    def watch() -> None:
-        import time
-        while os.getppid() == parent:
-            time.sleep(1.0)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="fpk-vibro-parent-watch", daemon=True).start()
+warnings.warn("fpk_vibro.interrupt moved to fpk_vibro.app.interrupt; the old path goes in the next release",
+              DeprecationWarning, stacklevel=2)
+sys.modules[__name__] = _module

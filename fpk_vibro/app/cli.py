@@ -1,0 +1,283 @@
+"""Command line: ``fpk-vibro COMMAND`` (also ``python -m fpk_vibro``).
+
+Commands
+--------
+run SCENE   run a scene (TOML): results.json, densities.npz, figures
+check SCENE every check of run, and the cost per point and method, without running
+keys        the table of scene keys (Markdown), generated from the declarations
+show DIR    print the summary table of a results directory
+study KIND  ``convergence`` (error vs wall time) or ``averaging`` (where it holds)
+paper       the paper's case end to end (Fig. 3 analogue): p(H) for r = 0.98, 0.92
+bench NAME  benchmarks: ``averaging``, ``montecarlo``, ``fem`` (what accuracy costs:
+            rtol against error, estimate and seconds), ``fem-scale`` (DOFs,
+            solvers, 10⁶ DOFs), ``fem-transient``
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import signal
+import sys
+import time
+from pathlib import Path
+
+from .._version import __version__
+
+_BENCHMARKS = {
+    "averaging": "fpk_vibro.app.benchmarks",
+    "montecarlo": "fpk_vibro.montecarlo.benchmark",
+    "fem": "fpk_vibro.fem.benchmark_rtol",
+    "fem-scale": "fpk_vibro.fem.benchmark",
+    "fem-transient": "fpk_vibro.fem.benchmark_transient",
+}
+
+
+def _print_moments(label: str, moments: dict[str, float], se: dict[str, float] | None = None) -> None:
+    cells = []
+    for k, v in moments.items():
+        cell = f"{k}={v:.6g}"
+        if se and k in se:
+            cell += f"±{se[k]:.2g}"
+        cells.append(cell)
+    print(f"  {label:<22s} " + "  ".join(cells))
+
+
+def cmd_paper(args: argparse.Namespace) -> int:
+    """Yang et al. (2016) Fig. 3: averaged p(H) for r = 0.98 and 0.92, moments printed."""
+    from .. import averaging
+    from . import plotting
+    from ..model import VibroImpactSystem
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    curves = []
+    print("fpk-vibro: paper case a=1, b=0.2, c=0.025, D1=D2=0.01, Δ=0.6 (Yang et al. 2016, Fig. 3)")
+    for r in (0.98, 0.92):
+        system = VibroImpactSystem.paper(r=r)
+        t0 = time.perf_counter()
+        sol = averaging.stationary(system)
+        dt = time.perf_counter() - t0
+        _print_moments(f"averaging r={r} ({dt*1e3:.0f} ms)", sol.moments())
+        sol.save(out / f"averaging_r{r}.npz")
+        curves.append((f"averaging, r = {r}", sol))
+    fig = plotting.plot_energy_pdfs(curves, out / "fig3_pdf_energy.png",
+                                    title="Stationary p(H), Δ = 0.6 (cf. paper Fig. 3)")
+    print(f"  wrote {fig} and the solutions (*.npz) in {out}/")
+    return 0
+
+
+def _load(args: argparse.Namespace):
+    from .scenes import load_scene
+    scene = load_scene(args.scene)
+    return scene.reduced() if getattr(args, "reduced", False) else scene
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .runner import run_scene
+
+    scene = _load(args)
+    log = (lambda s: None) if args.quiet else print
+    log(f"fpk-vibro: scene {scene.name!r}: methods {list(scene.methods)}, "
+        f"{scene.n_points} point(s), effects {scene.system.effects}")
+    doc = run_scene(scene, out=args.out, workers=args.workers, scheduler=args.scheduler,
+                    log=log, progress=None if not args.quiet else False, resume=args.resume,
+                    warn=lambda s: print(s.strip(), file=sys.stderr))
+    out = Path(args.out) if args.out else scene.output_dir
+    if not args.quiet:
+        _print_summary(doc)
+        print(f"  wrote {out}/results.json")
+    if doc["status"] == "interrupted":
+        n_done = sum(p.get("status") == "done" for p in doc["points"])
+        print(f"fpk-vibro: interrupted ({doc['signal']}): the run is partial, {n_done} of "
+              f"{len(doc['points'])} point(s) finished and kept in {out}/results.json; "
+              "continue with --resume", file=sys.stderr)
+        return 128 + int(getattr(signal, doc["signal"]))
+    return 1 if any(p.get("status") == "failed" for p in doc["points"]) else 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """Every check of ``run``, per point and method, with the cost estimates."""
+    from ..budget import human_bytes, human_seconds
+    from .scenes import check_scene
+
+    scene = _load(args)
+    points = check_scene(scene)
+    print(f"{args.scene}: valid — methods {list(scene.methods)}, quantities "
+          f"{list(scene.quantities)}, {'times ' + str(list(scene.times)) if scene.transient else 'stationary'}, "
+          f"{len(points)} point(s){' (reduced)' if args.reduced else ''}")
+    total_s, peak = 0.0, 0.0
+    for i, pt in enumerate(points):
+        label = ", ".join(f"{k}={v:g}" for k, v in pt["parameters"].items()) or "single point"
+        print(f"  point {i + 1}: {label}")
+        for method, cost in pt["costs"].items():
+            print(f"    {method:<11s} {cost.describe()}")
+            total_s += cost.seconds
+            peak = max(peak, cost.memory)
+    print(f"  estimated total: ~{human_seconds(total_s)} of compute, at most "
+          f"~{human_bytes(peak)} of memory per point")
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    import json
+
+    path = Path(args.dir) / "results.json"
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise ValueError(f"{path}: cannot read results ({reason})") from None
+    import contextlib
+    import io
+    text = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(text):
+            _print_summary(doc)
+    except (KeyError, TypeError, AttributeError, ValueError, IndexError):
+        raise ValueError(f"{path}: not a results file of fpk-vibro (malformed)") from None
+    print(text.getvalue(), end="")
+    return 0
+
+
+def _print_summary(doc: dict) -> None:
+    keys = ("E_H", "E_x2", "E_y2", "P_impact")
+    print(f"  {'point':<24s} {'method':<11s} {'time s':>7s} " + " ".join(f"{k:>18s}" for k in keys))
+    for p in doc["points"]:
+        label = ", ".join(f"{k}={v:g}" for k, v in p["parameters"].items()) or "-"
+        if "error" in p:
+            print(f"  {label:<24s} FAILED: {p['error']}")
+            continue
+        if p.get("status") == "interrupted" and not p.get("methods"):
+            print(f"  {label:<24s} INTERRUPTED (not computed)")
+            continue
+        for method, e in p["methods"].items():
+            rec = e["at"][-1] if "at" in e else e
+            m, se = rec["moments"], rec.get("moments_se", {})
+            cells = [(f"{m[k]:.6g}" + (f"±{se[k]:.1g}" if k in se else "")) if k in m else "-"
+                     for k in keys]
+            # a method a signal cut short: its numbers are from the part it finished
+            flag = "  PARTIAL (interrupted)" if e.get("partial") or rec.get("partial") else ""
+            print(f"  {label:<24s} {method:<11s} {e['wall_time_s']:7.2f} " +
+                  " ".join(f"{c:>18s}" for c in cells) + flag)
+
+
+def cmd_study(args: argparse.Namespace) -> int:
+    from . import studies
+    from .scenes import load_scene
+
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else scene.output_dir / f"study_{args.kind}"
+    print(f"fpk-vibro: {args.kind} study of {scene.name!r}{' (quick)' if args.quick else ''}")
+    if args.kind == "convergence":
+        doc = studies.convergence_study(scene, quick=args.quick)
+    else:
+        doc = studies.averaging_study(scene, quick=args.quick)
+    files = studies.write_study(args.kind, doc, out)
+    if args.kind == "convergence":
+        print(studies.markdown_table(doc))
+    else:
+        print("Averaging's E[H] against FE:\n" + studies.averaging_table(doc))
+        print("\nAveraging's mean first-passage time (rest → 3 E[H]) against FE:\n"
+              + studies.averaging_table(doc, "rel_tau"))
+    print("  wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+def cmd_keys(args: argparse.Namespace) -> int:
+    """The table of scene keys (generated from the declarations; the README's)."""
+    from .scenes import schema_table
+    print(schema_table())
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    module = importlib.import_module(_BENCHMARKS[args.name])
+    return int(module.main(args.rest) or 0)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit status 2), no usage dump."""
+
+    def error(self, message: str):  # noqa: D102
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
+def _positive_int(flag: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < 1 or value > 4096:
+            raise argparse.ArgumentTypeError(f"must be an integer in [1, 4096]; got {text!r}")
+        return value
+    parse.__name__ = flag
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="fpk-vibro", description=__doc__.split("\n")[0])
+    p.add_argument("--version", action="version", version=f"fpk-vibro {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    pr = sub.add_parser("run", help="run a scene (TOML)")
+    pr.add_argument("scene")
+    pr.add_argument("--out", default=None, help="output directory (default: the scene's)")
+    pr.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    pr.add_argument("--reduced", action="store_true",
+                    help="a reduced size (few paths, coarse meshes) for a first look and tests")
+    pr.add_argument("--workers", type=_positive_int("--workers"), default=None,
+                    help="local worker processes for a sweep (>= 1)")
+    pr.add_argument("--force", action="store_true",
+                    help="run even beyond the estimated memory, time or sweep limits")
+    pr.add_argument("--resume", action="store_true",
+                    help="keep the points an earlier run of this scene finished in the "
+                         "output directory (same scene, parameters and settings, files "
+                         "present); compute the missing, interrupted and failed ones")
+    pr.add_argument("--scheduler", default=None,
+                    help="Dask scheduler ADDRESS for sweeps (extra fpk-vibro[distributed])")
+    pr.set_defaults(func=cmd_run)
+    pc = sub.add_parser("check", help="validate a scene and estimate its cost, without running it")
+    pc.add_argument("scene")
+    pc.add_argument("--reduced", action="store_true", help="check the reduced size")
+    pc.add_argument("--force", action="store_true",
+                    help="accept work beyond the estimated memory, time or sweep limits")
+    pc.set_defaults(func=cmd_check)
+    ps = sub.add_parser("show", help="summary table of a results directory")
+    ps.add_argument("dir")
+    ps.set_defaults(func=cmd_show)
+    pt = sub.add_parser("study", help="convergence (work-precision) or averaging-validity study")
+    pt.add_argument("kind", choices=["convergence", "averaging"])
+    pt.add_argument("scene")
+    pt.add_argument("--out", default=None, help="output directory")
+    pt.add_argument("--quick", action="store_true", help="reduced size (about a minute)")
+    pt.set_defaults(func=cmd_study)
+    pk = sub.add_parser("keys", help="the table of scene keys (Markdown)")
+    pk.set_defaults(func=cmd_keys)
+    pp = sub.add_parser("paper", help="the paper's case end to end (Fig. 3 analogue)")
+    pp.add_argument("--out", default="results", help="output directory (default: results)")
+    pp.set_defaults(func=cmd_paper)
+    pb = sub.add_parser("bench", help="benchmarks")
+    pb.add_argument("name", choices=sorted(_BENCHMARKS))
+    pb.add_argument("rest", nargs=argparse.REMAINDER, help="options passed to the benchmark")
+    pb.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if getattr(args, "force", False):
+            from ..budget import unlimited
+            with unlimited():
+                return int(args.func(args) or 0)
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt as exc:
+        print("fpk-vibro: interrupted", file=sys.stderr)
+        return 128 + int(getattr(exc, "signum", signal.SIGINT))
+    except OSError as exc:
+        where = f" {exc.filename!r}:" if getattr(exc, "filename", None) else ""
+        print(f"fpk-vibro: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        print(f"fpk-vibro: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2

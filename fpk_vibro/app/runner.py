@@ -1,0 +1,501 @@
+"""Run a scene: only the requested methods, quantities and times; results written atomically.
+
+Layout of an output directory::
+
+    results.json            the scene echoed, per point and method: moments (with
+                            standard errors where they exist), wall time, effects
+    densities.npz           grids and densities, keys "p{i}.{method}.{quantity}.{grid|pdf|se}"
+    p{i}_{quantity}.png     figures: p(H), p(x), p(y) with every method overlaid
+    p{i}_joint.png          joint densities side by side
+    p{i}_fem.vtu            the FE field (format "vtu")
+    points/p{i}.json        each sweep point as soon as it finishes
+"""
+from __future__ import annotations
+
+import contextlib
+import importlib
+import os
+import socket
+import signal
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .._checks import InputError
+from ..io import atomic_json, atomic_savez
+from ..model import VibroImpactSystem
+from ..progress import Progress
+from ..scales import density_grids
+from .interrupt import Interrupted, received, signals_handled
+from .outdir import OutputDir, holds, point_records
+from .plan import resolved_options, solver_kwargs
+from .resume import clear_outputs, clear_temporaries, fingerprint, select, storage_fault
+from .scenes import Scene, check_scene
+
+__all__ = ["run_scene", "run_point", "grids_for"]
+
+grids_for = density_grids
+
+
+def _solve(method: str, system: VibroImpactSystem, scene: Scene,
+           progress: bool | None = False) -> Any:
+    """One method on one system with the scene's keywords; a Solution or a list."""
+    from importlib import import_module
+    kw = solver_kwargs(scene, method, progress=progress)
+    if method == "exact":
+        from .. import exact
+        return exact.gibbs(system)
+    module = import_module(f"fpk_vibro.{method}")
+    if scene.transient:
+        return list(module.transient(system, initial=scene.initial, times=scene.times, **kw))
+    return module.stationary(system, **kw)
+
+
+def _partial(sol: Any) -> bool:
+    """True for a solution (or list of them) that a signal cut short."""
+    if isinstance(sol, list):
+        return bool(getattr(sol, "partial", False)) or any(_partial(s) for s in sol)
+    return bool(getattr(sol, "partial", False) or getattr(sol, "info", {}).get("partial"))
+
+
+def _moments_record(sol: Any) -> dict[str, Any]:
+    rec: dict[str, Any] = {"moments": sol.moments()}
+    if hasattr(sol, "moments_se"):
+        rec["moments_se"] = sol.moments_se()
+    for attr in ("mass", "min_density", "residual", "impact_rate", "n_paths", "dt", "partial",
+                 "seed_entropy"):
+        val = getattr(sol, attr, None)
+        if isinstance(val, (int, float, bool, np.floating, np.integer)):
+            rec[attr] = val.item() if hasattr(val, "item") else val
+    return rec
+
+
+def _density_arrays(snapshots: dict, grids: dict, quantities: list, index: int,
+                    tag: str = "") -> dict[str, np.ndarray]:
+    """The densities of one point (and time ``tag``) on their grids, npz-keyed."""
+    arrays: dict[str, np.ndarray] = {}
+    for m, sol in snapshots.items():
+        for q in quantities:
+            key = f"p{index}.{m}.{q}{tag}"
+            if q == "joint":
+                gx, gy = grids["joint"]
+                arrays[f"{key}.x"], arrays[f"{key}.y"] = gx, gy
+                arrays[f"{key}.pdf"] = sol.pdf_joint(gx[None, :], gy[:, None])
+                continue
+            g = grids[q]
+            arrays[f"{key}.grid"] = g
+            arrays[f"{key}.pdf"] = getattr(sol, "pdf_" + q)(g)
+            if m == "montecarlo":
+                edges, dens, se = sol.histogram(q)
+                arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"] = edges, dens, se
+    return arrays
+
+
+def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
+                 passages: dict[str, Any]) -> dict[str, Any]:
+    """Impact statistics and first passage of one method, if the scene asks for them."""
+    out: dict[str, Any] = {}
+    if "impacts" in scene.quantities and system.has_barrier:
+        try:
+            out["impacts"] = sol.impacts()
+        except NotImplementedError:
+            pass
+    try:                       # a check on every stationary solution (docs/impacts.md)
+        out["power_balance"] = sol.power_balance()
+    except NotImplementedError:
+        pass
+    if scene.first_passage is not None and method != "exact":
+        module = importlib.import_module(f"fpk_vibro.{method}")
+        fp = scene.first_passage
+        kw = {"seed": scene.numerics.get("montecarlo", {}).get("seed")} \
+            if method == "montecarlo" else {}
+        start = fp["start"] if fp["start"] == "stationary" else tuple(fp["start"])
+        passages[method] = module.first_passage(system, energy=fp["energy"], start=start,
+                                                times=fp["times"], **kw)
+        out["first_passage"] = passages[method].to_dict()
+    return out
+
+
+def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
+              out_dir: Path, progress: bool | None = False, token: str | None = None
+              ) -> dict[str, Any]:
+    """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
+    from . import plotting
+
+    record: dict[str, Any] = {"index": index, "parameters": params, "status": "done",
+                              "fingerprint": fingerprint(scene, index, params, system),
+                              "system": system.to_dict(), "effects": system.effects,
+                              "methods": {}}
+    solutions: dict[str, Any] = {}
+    passages: dict[str, Any] = {}
+    for method in scene.methods:
+        importlib.import_module(f"fpk_vibro.{method}")   # imports are not the method's time
+        t0 = time.perf_counter()
+        sol = _solve(method, system, scene, progress)
+        wall = time.perf_counter() - t0
+        solutions[method] = sol
+        entry: dict[str, Any] = {"wall_time_s": wall, "options": resolved_options(scene, method)}
+        if _partial(sol):
+            entry["partial"] = True
+            record["status"] = "interrupted"
+        if scene.transient:
+            entry["times"] = list(scene.times)
+            entry["at"] = [_moments_record(s) for s in sol]
+        else:
+            entry.update(_moments_record(sol))
+            entry.update(_engineering(scene, method, system, sol, passages))
+        record["methods"][method] = entry
+        if record["status"] == "interrupted":
+            break
+    if token is not None and not holds(out_dir, token):
+        raise RuntimeError("the run was stopped; this point's result is discarded")
+    arrays: dict[str, np.ndarray] = {}
+    want_density = [q for q in scene.quantities if q in ("energy", "x", "y", "joint")]
+    if want_density:
+        title = f"{scene.name}" + ("" if not params else " — " + ", ".join(
+            f"{k} = {v:g}" for k, v in params.items()))
+        # a transient: every requested time (arrays "….t{k}", figures "p{i}_t{k}_…"),
+        # and the last time also under the stationary keys
+        steps = list(enumerate(scene.times)) if scene.transient else [(None, None)]
+        record["figures"] = []
+        for k, t in steps:
+            snapshots = {m: (s[k] if k is not None else s) for m, s in solutions.items()}
+            grids = grids_for(system, next(iter(snapshots.values())))
+            tags = [f".t{k}"] + ([""] if k == len(steps) - 1 else []) if k is not None else [""]
+            for tag in tags:
+                arrays.update(_density_arrays(snapshots, grids, want_density, index, tag))
+            if "png" in scene.formats:
+                record["figures"] += [str(p.name) for p in plotting.scene_figures(
+                    snapshots, grids, want_density, out_dir,
+                    f"p{index}" if k is None else f"p{index}_t{k}",
+                    title if t is None else f"{title}, t = {t:g}")]
+    if "png" in scene.formats and ("impacts" in scene.quantities and system.has_barrier
+                                   or passages):
+        figs = record.setdefault("figures", [])
+        if "impacts" in scene.quantities and system.has_barrier:
+            figs.append(plotting.impact_speeds(solutions, out_dir / f"p{index}_impact_speed.png",
+                                               title=scene.name).name)
+        if passages:
+            figs.append(plotting.reliability(passages, out_dir / f"p{index}_reliability.png",
+                                             title=scene.name).name)
+    if scene.transient and "png" in scene.formats and "moments" in scene.quantities:
+        figs = record.setdefault("figures", [])
+        for key in ("E_H", "E_x2", "E_y2"):
+            figs.append(plotting.moment_history(record["methods"], out_dir / f"p{index}_{key}_t.png",
+                                                key=key, title=scene.name).name)
+    if "vtu" in scene.formats and "fem" in solutions:
+        fem_sol = solutions["fem"][-1] if scene.transient else solutions["fem"]
+        path = out_dir / f"p{index}_fem.vtu"
+        fem_sol.save_vtu(path)
+        record["vtu"] = path.name
+    if "npz" in scene.formats and arrays:
+        atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
+        record["densities"] = f"points/p{index}.npz"     # resume checks it is there
+    atomic_json(out_dir / "points" / f"p{index}.json", record)
+    if record["status"] == "interrupted":
+        raise Interrupted(received() or signal.SIGINT)
+    return record
+
+
+def _point_job(args: tuple) -> dict[str, Any]:
+    scene, index, params, system, out_dir, progress, token = args
+    try:
+        return run_point(scene, index, params, system, out_dir, progress, token)
+    except Interrupted:
+        raise
+    except OSError as exc:    # a full disk is the run's fault, not the point's: it stops
+        if storage_fault(exc):
+            raise
+        rec = _failed(scene, index, params, system, exc)
+    except Exception as exc:  # a failed point is reported, the others go on
+        rec = _failed(scene, index, params, system, exc)
+    if token is None or holds(out_dir, token):
+        atomic_json(out_dir / "points" / f"p{index}.json", rec)
+    return rec
+
+
+def _failed(scene: Scene, index: int, params: dict[str, float], system: VibroImpactSystem,
+            exc: BaseException) -> dict[str, Any]:
+    """The record of a point that raised ``exc`` (computed again by ``--resume``)."""
+    return {"index": index, "parameters": params, "status": "failed",
+            "fingerprint": fingerprint(scene, index, params, system),
+            "error": " ".join(f"{type(exc).__name__}: {exc}".split())}
+
+
+def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | None = None,
+              scheduler: str | None = None, log: Callable[[str], None] = print,
+              progress: bool | None = False, resume: bool = False,
+              warn: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Run every point of ``scene``; returns (and writes) the results document.
+
+    Everything is checked before any work (:func:`fpk_vibro.scenes.check_scene`,
+    the output directory, its lock).  ``progress`` (None: on a terminal) is passed
+    to the solvers of a run in this process (one point, or ``workers=1``).
+    ``resume``: keep the points an earlier run of the same scene finished in the
+    output directory and compute only the others (:func:`fpk_vibro.resume.select`:
+    a record is kept when its fingerprints match and its files are there; failed
+    points are computed again); ``log`` gets one line saying how many and why.
+    Without it the run clears the earlier run's outputs first (a run owns its
+    directory: :func:`fpk_vibro.resume.clear_outputs`).  A full disk stops the run:
+    ``results.json`` lists what finished (``"status": "failed"``, ``"error"`` names
+    the file) and the :class:`OSError` raised names the file and says what was kept.
+    SIGINT or SIGTERM stops the
+    run within about a second: workers are terminated, ``results.json`` lists every
+    finished point and marks the others ``"status": "interrupted"``, and the
+    document's ``"status"`` is ``"interrupted"`` (``"signal"`` names it).
+    ``warn`` receives failed points (default: ``log``).
+    """
+    check_scene(scene)                  # every check of every point, before any work
+    if scheduler is not None:
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError:
+            raise InputError("--scheduler: needs dask.distributed (pip install "
+                             "'fpk-vibro[distributed]')", name="--scheduler") from None
+    out_dir = Path(out) if out is not None else scene.output_dir
+    points = scene.points()
+    warn = warn or log
+    with OutputDir(out_dir, "--out" if out is not None else "output.directory") as lock, \
+            signals_handled(), _dask(scheduler) as client:
+        if resume:                     # only records of this scene, point and settings
+            records, line = select(out_dir, scene, points)
+            log(line)
+        else:
+            records = {}
+        clear_outputs(out_dir, records)   # the run owns the outputs: no earlier run's mix in
+        serial = scheduler is None and (len(points) - len(records) <= 1 or workers == 1)
+        # the output directory as an absolute path: a worker (a Dask one in particular)
+        # has its own working directory
+        job_dir = Path(os.path.abspath(out_dir))
+        jobs = [(scene, i, params, system, job_dir, progress if serial else False, lock.token)
+                for i, (params, system) in enumerate(points) if i not in records]
+        t0 = time.perf_counter()
+        signum = None
+        fault: OSError | None = None
+        sweep_bar = Progress(progress if len(jobs) > 1 else False, f"{scene.name} points",
+                             total=len(points), unit="point")
+        sweep_bar.update(len(records))
+        try:
+            for rec in _execute(jobs, serial, workers, client):
+                records[rec["index"]] = _report(rec, len(points), log, warn)
+                sweep_bar.update(len(records))
+        except Interrupted as exc:
+            signum = exc.signum
+        except OSError as exc:        # a full disk: stop, keep what finished
+            if not storage_fault(exc):
+                raise
+            fault = exc
+        except SchedulerLost as exc:  # keep what finished; the rest fails (--resume redoes it)
+            on_disk = point_records(out_dir)
+            lost = [j for j in jobs if j[1] not in records]
+            for j in lost:
+                r = on_disk.get(j[1])
+                records[j[1]] = r if r and r.get("status") in ("done", "failed") else {
+                    "index": j[1], "parameters": j[2], "status": "failed",
+                    "error": f"not computed: {exc}"}
+            n_lost = sum(records[j[1]].get("status") == "failed" for j in lost)
+            warn(f"fpk-vibro: {exc}: {n_lost} point(s) not computed, marked failed in "
+                 "results.json; run again with --resume to compute them")
+        finally:
+            sweep_bar.close()
+        signum = signum or received()
+        if signum is not None or fault is not None:   # what workers wrote, not yet reported
+            todo = {j[1] for j in jobs}
+            records.update({i: r for i, r in point_records(out_dir).items()
+                            if i not in records and i in todo})
+        clear_temporaries(out_dir)    # of a worker stopped in the middle of a write
+        wall = time.perf_counter() - t0
+        if fault is None:
+            try:
+                return _write_results(scene, points, records, out_dir, wall, signum)
+            except OSError as exc:
+                if not storage_fault(exc):
+                    raise
+                fault = exc
+        raise _storage_failed(fault, scene, points, records, out_dir, wall, signum)
+
+
+def _storage_failed(fault: OSError, scene: Scene, points: list, records: dict[int, dict],
+                    out_dir: Path, wall: float, signum: int | None) -> OSError:
+    """After a write failed for lack of space: ``results.json`` with every finished point
+    (``"status": "failed"``, ``"error"`` names the file) if it can still be written; the
+    one-line error that names the file and says what was kept."""
+    clear_temporaries(out_dir)
+    n = sum(r.get("status") == "done" for r in records.values())
+    try:
+        _write_results(scene, points, records, out_dir, wall, signum, fault)
+        kept = f"results.json lists the {n} finished point(s)"
+    except OSError as exc:
+        if not storage_fault(exc):
+            raise
+        clear_temporaries(out_dir)
+        kept = (f"the {n} finished point(s) are kept in {str(out_dir / 'points')!r} "
+                "(results.json could not be written)")
+    return OSError(fault.errno, f"{fault.strerror or fault}; {kept}; free space and continue "
+                   "with --resume", fault.filename)
+
+
+class SchedulerLost(RuntimeError):
+    """The Dask scheduler went away during the sweep."""
+
+
+@contextlib.contextmanager
+def _dask(address: str | None):
+    """A Dask client of ``address`` (None: no client), connected with every step
+    bounded (:func:`fpk_vibro.scheduler.client`), closed at the end."""
+    if address is None:
+        yield None
+        return
+    from .scheduler import client as connect, quiet
+    client = connect(address)
+    client.fpk_address = address
+    try:
+        with quiet():
+            yield client
+    finally:
+        with quiet():
+            try:
+                client.close(timeout=5)
+            except Exception:          # a lost scheduler: nothing to close
+                pass
+
+
+def _died(job: tuple, reason: str) -> dict[str, Any]:
+    """The record of a point whose worker died: what it wrote, or a failure that is
+    not written to ``points/`` (so that ``--resume`` computes it again)."""
+    index, params, out_dir = job[1], job[2], job[4]
+    rec = point_records(out_dir).get(index)
+    if rec is not None and rec.get("status") in ("done", "failed"):
+        return rec
+    return {"index": index, "parameters": params, "status": "failed",
+            "error": f"{reason}; --resume computes it again"}
+
+
+def _execute(jobs: list, serial: bool, workers: int | None, client: Any = None):
+    """Yield each job's record as it finishes, in this process, in worker processes
+    (:mod:`fpk_vibro.pool`) or on Dask (``client``)."""
+    if not jobs:
+        return
+    if client is not None:
+        yield from _on_dask(client, jobs)
+        return
+    if serial:
+        for job in jobs:
+            yield _point_job(job)
+        return
+    from .pool import run_jobs
+    yield from run_jobs(_point_job, jobs, workers or os.cpu_count() or 1, _died)
+
+
+def _on_dask(client: Any, jobs: list):
+    """The jobs on Dask: a task that fails fails its point; a lost scheduler raises
+    :class:`SchedulerLost` after every point reported so far."""
+    from distributed import as_completed
+    address = getattr(client, "fpk_address", "")
+    futures = client.map(_point_job, jobs, pure=False)
+    job_of = {f.key: job for f, job in zip(futures, jobs)}
+    lost = False
+    try:
+        for fut in as_completed(futures, loop=client.loop):
+            try:
+                rec = fut.result()
+            except (KeyboardInterrupt, GeneratorExit, SystemExit):
+                raise
+            except BaseException as exc:   # CancelledError is one (not an Exception)
+                if "connection-lost" in str(getattr(exc, "reason", "")) or \
+                        client.status not in ("running", "newly-created") or \
+                        _scheduler_gone(exc, address):
+                    lost = True
+                    raise SchedulerLost(f"the Dask scheduler {address} was lost "
+                                        "mid-sweep") from None
+                job = job_of[fut.key]
+                rec = {"index": job[1], "parameters": job[2], "status": "failed",
+                       "error": "on Dask: " + " ".join(
+                           f"{type(exc).__name__}: {exc}".split())[:500]}
+            yield rec
+    except BaseException:
+        if not lost:
+            try:
+                client.cancel(futures, force=True)
+            except Exception:
+                pass
+        raise
+
+
+def _scheduler_gone(exc: BaseException, address: str) -> bool:
+    """Whether ``exc`` (fetching a result) is the scheduler's loss: a closed
+    connection while nothing listens at ``address`` any more.  The client notices
+    the loss itself only later, so a result fetched in between would otherwise be
+    taken for a point's own failure."""
+    from distributed.comm import CommClosedError, parse_address, parse_host_port
+    if not isinstance(exc, (CommClosedError, OSError)) or not address:
+        return False
+    try:
+        host, port = parse_host_port(parse_address(address)[1])
+        socket.create_connection((host, port), timeout=2.0).close()
+    except OSError:
+        return True
+    except Exception:      # an address the check cannot read: not proof of a loss
+        return False
+    return False
+
+
+def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]],
+                   out_dir: Path, wall: float, signum: int | None,
+                   fault: OSError | None = None) -> dict[str, Any]:
+    """results.json (every point: finished, failed or interrupted) and densities.npz;
+    after a storage ``fault``, results.json alone (``"status": "failed"``)."""
+    from .._version import __version__
+    listed = []
+    for i, (params, _) in enumerate(points):
+        listed.append(records.get(i) or {"index": i, "parameters": params,
+                                         "status": "interrupted"})
+    doc = {"scene": scene.source, "name": scene.name, "stationary": not scene.transient,
+           "fpk_vibro_version": __version__, "wall_time_s": wall,
+           "status": "complete" if signum is None else "interrupted", "points": listed}
+    if signum is not None:
+        doc["signal"] = signal.Signals(signum).name
+    if fault is not None:        # the rest is made again by --resume
+        doc["status"], doc["error"] = "failed", f"{fault.filename}: {fault.strerror or fault}"
+        atomic_json(out_dir / "results.json", doc)
+        return doc
+    atomic_json(out_dir / "results.json", doc)
+    if "npz" in scene.formats:
+        merged: dict[str, np.ndarray] = {}
+        for r in listed:
+            f = out_dir / "points" / f"p{r['index']}.npz"
+            if r.get("status") == "done" and f.exists():
+                with np.load(f) as data:
+                    merged.update({k: data[k] for k in data.files})
+        if merged:
+            atomic_savez(out_dir / "densities.npz", merged)
+            if scene.sweep and "png" in scene.formats and signum is None:
+                from . import plotting
+                doc["figures"] = [plotting.sweep_overlay(
+                    merged, listed, q, out_dir / f"sweep_{q}.png", title=scene.name).name
+                    for q in ("energy", "x", "y") if q in scene.quantities]
+                if "moments" in scene.quantities and not scene.transient and any(
+                        r.get("status") == "done" for r in listed):
+                    doc["figures"].append(plotting.sweep_moments(
+                        listed, out_dir / "sweep_moments.png", title=scene.name).name)
+                atomic_json(out_dir / "results.json", doc)
+    if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
+        from ..io import atomic_files
+        from ..labelled import NETCDF_ENGINE, run_dataset
+        atomic_files(out_dir / "results.nc", lambda p: run_dataset(out_dir).to_netcdf(
+            p, engine=NETCDF_ENGINE))
+    return doc
+
+
+def _report(record: dict[str, Any], total: int, log: Callable[[str], None],
+            warn: Callable[[str], None]) -> dict[str, Any]:
+    i = record["index"]
+    params = ", ".join(f"{k}={v:g}" for k, v in record["parameters"].items()) or "single point"
+    if record.get("status") == "failed":
+        warn(f"  point {i + 1}/{total} ({params}) FAILED: {record['error']}")
+    else:
+        times = ", ".join(f"{m} {e['wall_time_s']:.2f} s" for m, e in record["methods"].items())
+        log(f"  point {i + 1}/{total} ({params}) {record.get('status', 'done')}: {times}")
+    return record

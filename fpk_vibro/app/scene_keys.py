@@ -1,0 +1,187 @@
+"""The keys a scene may hold, each declared once, and the README's table of them.
+
+``[system]`` and ``[barriers]`` come from :data:`fpk_vibro.model.FIELDS` (the walls'
+sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[averaging]``, ``[fem]``,
+``[montecarlo]`` from each method's ``Options``, the rest from :data:`STUDY_KEYS`
+here.  Parsing a scene is :mod:`fpk_vibro.scenes`.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from .._checks import InputError, check_float, closest, invalid
+from ..model import FIELDS, WALL_FIELDS
+from ..options import REQUIRED, Option, PerMode
+
+__all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "FORMATS", "SWEEPABLE", "STUDY_KEYS",
+           "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option"]
+
+
+METHODS = ("averaging", "fem", "montecarlo", "exact")
+QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
+#: Quantities of a stationary scene only.
+STATIONARY_ONLY = ("impacts", "first_passage")
+FORMATS = ("json", "npz", "png", "vtu", "nc")
+SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
+             "right.position", "right.r")
+
+
+def sweep_option(p: str) -> Option:
+    """The declaration a swept value is checked against (a model or a wall field)."""
+    return WALL_FIELDS[p.split(".")[1]] if "." in p else FIELDS[p]
+class SceneError(InputError):
+    """An invalid scene: the message names the key and what is allowed."""
+
+
+def _subset(options: tuple[str, ...], empty: bool = False):
+    def check(name: str, v: Any, where: str | None) -> tuple[str, ...]:
+        if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
+            raise invalid(where, name, f"a list of names from {list(options)}", v)
+        for s in v:
+            if s not in options:
+                raise invalid(where, name, f"a list of names from {list(options)}", v,
+                              f"unknown {s!r}{closest(s, options)}".replace(" (", "; "))
+        if not v and not empty:
+            raise invalid(where, name, f"a non-empty list of names from {list(options)}", v)
+        if len(set(v)) != len(v):
+            raise invalid(where, name, "a list without repeated entries", v)
+        return tuple(v)
+    return check
+
+
+def _numbers(count: int | None, lo: float = -math.inf, what: str = "numbers"):
+    def check(name: str, v: Any, where: str | None) -> tuple[float, ...]:
+        n = "a list of two" if count == 2 else "a non-empty list of"
+        allowed = f"{n} finite {what}"
+        if not isinstance(v, list) or not v or (count and len(v) != count) \
+                or len(v) > 100_000:
+            raise invalid(where, name, allowed, v)
+        return tuple(check_float(f"{name}[{i}]", x, lo, lo_open=False, where=where)
+                     for i, x in enumerate(v))
+    return check
+
+
+def _times(name: str, v: Any, where: str | None) -> tuple[float, ...]:
+    from ..initial import parse_times
+    _numbers(None, 0.0, "numbers >= 0")(name, v, where)
+    try:
+        return tuple(float(t) for t in parse_times(v, where or "study"))
+    except ValueError:
+        raise invalid(where, name, "a non-empty, strictly increasing list of finite "
+                      "numbers >= 0", v) from None
+
+
+def _start(name: str, v: Any, where: str | None) -> Any:
+    if v == "stationary":
+        return v
+    return _numbers(2)(name, v, where)
+
+
+def _option(default: Any, doc: str, check, allowed: str, unit: str = "") -> Option:
+    return Option(default, doc, "custom", check=check, allowed=allowed, unit=unit)
+
+
+#: The scene's own keys (not model fields or method options).
+STUDY_KEYS: dict[str, dict[str, Option]] = {
+    "study": {
+        "name": Option(None, "a label for the results (the default directory uses it with "
+                       "every character but letters, digits, '.', '_', '-' replaced)", "text",
+                       auto="the scene file's name"),
+        "methods": _option(REQUIRED, "the methods to run", _subset(METHODS),
+                           f"list of {', '.join(METHODS)}"),
+        "quantities": _option(("energy", "x", "y", "moments"), "what to compute",
+                              _subset(QUANTITIES), f"list of {', '.join(QUANTITIES)}"),
+        "times": Option(None, "output times; absent: stationary", "custom", check=_times,
+                        allowed="increasing list of numbers >= 0", unit="s",
+                        auto="stationary"),
+    },
+    "initial": {
+        "mean": Option(None, "[x0, y0] of the Gaussian start (transient)", "custom",
+                       check=_numbers(2), allowed="list of two numbers", auto="none"),
+        "std": Option(None, "[sx, sy]; 0 = exactly the mean", "custom",
+                      check=_numbers(2, 0.0, "numbers >= 0"),
+                      allowed="list of two numbers >= 0", auto="none"),
+    },
+    "first_passage": {
+        "energy": Option(None, "critical energy H_c of the safe set {H < H_c} "
+                         "(needed with the quantity \"first_passage\")", "float", lo=0.0,
+                         lo_open=True, unit="J/kg", auto="none"),
+        "start": Option((0.0, 0.0), "where paths start: [x0, y0] or \"stationary\"",
+                        "custom", check=lambda n, v, w: _start(n, v, w),
+                        allowed="list of two numbers or \"stationary\""),
+        "times": Option(None, "times at which R(t) is reported", "custom", check=_times,
+                        allowed="increasing list of numbers >= 0", unit="s",
+                        auto="a grid up to 5 τ"),
+    },
+    "output": {
+        "directory": Option(None, "output directory, relative to the scene", "text",
+                            auto="results/<scene name>"),
+        "formats": _option(("json", "npz", "png"), "files to write", _subset(FORMATS, True),
+                           f"list of {', '.join(FORMATS)}"),
+    },
+}
+
+
+def _method_options(method: str):
+    from importlib import import_module
+    return import_module(f"..{method}.options", __package__).Options
+
+
+TABLES = ("system", "barriers", "study", "averaging", "fem", "montecarlo", "initial",
+          "first_passage", "sweep", "output")
+
+
+def table_keys(table: str) -> dict[str, Option]:
+    """{key: Option} of one table.  A method's table imports only that method."""
+    if table in ("system", "barriers"):
+        return {opt.scene.split(".")[1]: opt for opt in FIELDS.values()
+                if opt.scene.startswith(table + ".")}
+    if table in ("averaging", "fem", "montecarlo"):
+        return {k: o for k, o in _method_options(table).declared().items()
+                if o.scene in ("", "file")}
+    if table == "sweep":
+        return {p: Option(None, f"list of values of {p}", "custom", check=_numbers(None),
+                          allowed="list of numbers", unit=sweep_option(p).unit,
+                          auto="no sweep")
+                for p in SWEEPABLE}
+    return STUDY_KEYS[table]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "SCHEMA":     # every table: imports every method (README, tests)
+        return {t: table_keys(t) for t in TABLES}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def schema_table() -> str:
+    """The scene keys as a Markdown table (key, default, allowed, meaning) for the README."""
+    rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
+    for table in TABLES:
+        for k, opt in table_keys(table).items():
+            if opt.default is REQUIRED:
+                default = "required"
+            elif isinstance(opt.default, PerMode) and opt.auto:
+                default = " / ".join(f"{mode}: " + (_toml(v) if v is not None else opt.auto)
+                                     for mode, v in (("stationary", opt.default.stationary),
+                                                     ("transient", opt.default.transient)))
+            elif opt.auto in ("none", "") and opt.default is None:
+                default = "—"
+            elif opt.auto:
+                default = f"auto: {opt.auto}"
+            elif isinstance(opt.default, tuple):
+                default = "[" + ", ".join(f'"{v}"' for v in opt.default) + "]"
+            else:
+                default = _toml(opt.default)
+            allowed = opt.describe() + (f" ({opt.unit})" if opt.unit else "")
+            doc = opt.doc
+            if len(opt.modes) == 1:
+                doc += f"; {opt.modes[0]} runs only"
+            cells = (f"`{table}.{k}`", default, allowed, doc)
+            rows.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return "\n".join(rows)
+
+
+def _toml(value: Any) -> str:
+    from ..options import _toml as toml
+    return toml(value)

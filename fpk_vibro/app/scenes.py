@@ -1,0 +1,328 @@
+"""Scenes: a declared study in a small TOML file, validated before any work starts.
+
+A scene names the system, the barriers, which methods to run, which quantities to
+compute and at which times (absent: stationary), the numerics of each method, an
+optional sweep over one or two parameters, and the output.  Every key comes from
+one declaration: ``[system]`` and ``[barriers]`` from :data:`fpk_vibro.model.FIELDS`,
+``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the
+rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the README's
+table is generated from it).
+
+:func:`parse_scene` checks every key; :func:`check_scene` then runs, per point and
+method, every check the solver itself runs (:mod:`fpk_vibro.plan`) and estimates the
+cost.  Any failure is a :class:`SceneError` with one line naming the key.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from .. import budget
+from .._checks import InputError, closest, show
+from ..model import FIELDS, VibroImpactSystem
+from ..options import REQUIRED
+from .outdir import safe_name
+from .scene_keys import (FORMATS, METHODS, QUANTITIES, STATIONARY_ONLY, STUDY_KEYS,  # noqa: F401
+                         SWEEPABLE, TABLES, SceneError, _method_options, schema_table,
+                         sweep_option, table_keys)
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["Scene", "SceneError", "load_scene", "parse_scene", "SCHEMA", "METHODS",  # noqa: F822
+           "QUANTITIES", "schema_table", "SWEEPABLE"]
+
+#: Largest scene file read (bytes).
+MAX_SCENE_BYTES = 1 << 20
+
+
+def __getattr__(name: str) -> Any:
+    if name == "SCHEMA":     # every table: imports every method (README, tests)
+        return {t: table_keys(t) for t in TABLES}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+_FIELD_OF_KEY = {opt.scene: name for name, opt in FIELDS.items()}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene.  ``points()`` expands the sweep into independent studies."""
+
+    name: str
+    system: VibroImpactSystem
+    methods: tuple[str, ...]
+    quantities: tuple[str, ...]
+    times: tuple[float, ...] | None
+    numerics: dict[str, dict[str, Any]]
+    initial: dict[str, tuple[float, float]] | None
+    sweep: dict[str, tuple[float, ...]]
+    output_dir: Path
+    formats: tuple[str, ...]
+    source: dict[str, Any] = field(default_factory=dict, repr=False)
+    first_passage: dict[str, Any] | None = None
+
+    @property
+    def transient(self) -> bool:
+        return self.times is not None
+
+    @property
+    def mode(self) -> str:
+        return "transient" if self.transient else "stationary"
+
+    @property
+    def n_points(self) -> int:
+        return math.prod(len(v) for v in self.sweep.values()) if self.sweep else 1
+
+    def reduced(self) -> "Scene":
+        """The same scene at the declared reduced sizes (quick look, tests)."""
+        num = {m: _method_options(m).reduce(self.mode, v) if m in self.methods else v
+               for m, v in self.numerics.items()}
+        return replace(self, numerics=num)
+
+    def points(self) -> list[tuple[dict[str, float], VibroImpactSystem]]:
+        """[(parameter values, system)] for each sweep point (one point if no sweep)."""
+        if not self.sweep:
+            return [({}, self.system)]
+        names = list(self.sweep)
+        out = []
+        for values in itertools.product(*(self.sweep[n] for n in names)):
+            params = dict(zip(names, values))
+            try:
+                out.append((params, self.system.replace(**params)))
+            except InputError as exc:
+                raise SceneError(exc.keyed(f"sweep.{exc.name}", f" (at {_label(params)})"),
+                                 name=f"sweep.{exc.name}") from None
+        return out
+
+
+def _label(params: dict[str, float]) -> str:
+    return ", ".join(f"{k} = {v:g}" for k, v in params.items()) or "the single point"
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file (TOML)."""
+    path = Path(path)
+    try:
+        if path.stat().st_size > MAX_SCENE_BYTES:
+            raise SceneError(f"{path}: a scene file must be below {MAX_SCENE_BYTES} bytes")
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = getattr(exc, "strerror", None) or "not UTF-8 text"
+        raise SceneError(f"{path}: cannot read the scene ({reason})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML ({exc})") from None
+    return parse_scene(data, name=path.stem, base=path.parent)
+
+
+def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Each given key checked by its declaration; unknown tables/keys rejected."""
+    for table in data:
+        if table not in TABLES:
+            raise SceneError(f"[{table}]: unknown table; allowed {list(TABLES)}"
+                             f"{closest(table, TABLES)}", name=table)
+        if not isinstance(data[table], dict):
+            raise SceneError(f"{table}: must be a table [{table}]; got {show(data[table])}",
+                             name=table)
+    for table, keys in (("system", "a, b, c, D1"), ("study", "methods")):
+        if table not in data:
+            raise SceneError(f"[{table}]: required table is missing ({keys})", name=table)
+    clean: dict[str, dict[str, Any]] = {}
+    for table in TABLES:
+        given = data.get(table, {})
+        if table == "sweep":      # TOML reads `left.r = [...]` as a sub-table
+            given = {(f"{k}.{kk}" if isinstance(v, dict) else k): (vv if isinstance(v, dict) else v)
+                     for k, v in given.items()
+                     for kk, vv in (v.items() if isinstance(v, dict) else [(None, v)])}
+        clean[table] = {}
+        if table in ("averaging", "fem", "montecarlo"):
+            continue              # their Options.from_scene checks them, per mode
+        keys = table_keys(table)
+        for k, v in given.items():
+            full = f"{table}.{k}"
+            if k not in keys:
+                raise SceneError(f"{full}: unknown key; allowed {list(keys)}"
+                                 f"{closest(k, keys)}", name=full)
+            try:
+                clean[table][k] = keys[k].validate(full, v, None)
+            except InputError as exc:
+                raise SceneError(str(exc), name=full) from None
+        for k, opt in keys.items():
+            if opt.default is REQUIRED and k not in given:
+                raise SceneError(f"{table}.{k}: required key is missing ({opt.doc})",
+                                 name=f"{table}.{k}")
+    return clean
+
+
+def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None = None) -> Scene:
+    """Validate a scene given as a dict (the parsed TOML); see :data:`SCHEMA`.
+
+    Checks every key and the sweep's size; :func:`check_scene` adds the checks that
+    need each point's system (the run does both before any work).
+    """
+    if not isinstance(data, dict):
+        raise SceneError(f"a scene must be a table of tables; got {type(data).__name__}")
+    clean = _clean_tables(data)
+    sys_, bar, study = clean["system"], clean["barriers"], clean["study"]
+    fields = {_FIELD_OF_KEY[f"system.{k}"]: v for k, v in sys_.items()}
+    fields.update({_FIELD_OF_KEY[f"barriers.{k}"]: v for k, v in bar.items()})
+    sides = fields.get("barriers", "both")
+    walls = fields.get("left") is not None or fields.get("right") is not None
+    if sides != "none" and fields.get("delta") is None and not walls:
+        raise SceneError(f"barriers.delta: required key is missing (sides = {sides!r} needs "
+                         "the barrier position, or give [barriers.left] / "
+                         "[barriers.right])", name="barriers.delta")
+    try:
+        system = VibroImpactSystem(**fields)
+    except InputError as exc:
+        key = FIELDS[exc.name].scene if exc.name in FIELDS else "system"
+        raise SceneError(exc.keyed(key), name=key) from None
+    sweep = {k: v for k, v in clean["sweep"].items() if v is not None}
+    if len(sweep) > 2:
+        raise SceneError(f"sweep: at most two parameters; got {sorted(sweep)}", name="sweep")
+    given_walls = [f"[barriers.{side}]" for side in ("left", "right") if bar.get(side)]
+    for k in ("delta", "r"):
+        if k in sweep and given_walls:
+            raise SceneError(
+                f"sweep.{k}: must not be swept with explicit walls {' and '.join(given_walls)} "
+                f"(the symmetric shorthand would replace them by walls at ±delta with one r); got "
+                f"sweep.{k} = {show(list(sweep[k]))}; sweep left.position/right.position or "
+                f"left.r/right.r instead", name=f"sweep.{k}")
+    n_points = math.prod(len(v) for v in sweep.values()) if sweep else 1
+    if n_points > budget.MAX_POINTS and not budget.forced():
+        raise SceneError(f"sweep: {n_points} points; the limit is {budget.MAX_POINTS} "
+                         "(fpk_vibro.budget.MAX_POINTS); use fewer or force it (--force)",
+                         name="sweep")
+    for k, values in sweep.items():
+        field_opt = sweep_option(k)
+        for i, v in enumerate(values):
+            try:
+                field_opt.validate(k, v, None)
+            except InputError as exc:
+                raise SceneError(exc.keyed(f"sweep.{k}[{i}]"), name=f"sweep.{k}") from None
+    times = study.get("times")
+    mode = "transient" if times is not None else "stationary"
+    numerics: dict[str, dict[str, Any]] = {}
+    for m in ("averaging", "fem", "montecarlo"):
+        try:
+            numerics[m] = _method_options(m).from_scene(mode, data[m]) if data.get(m) else {}
+        except InputError as exc:
+            raise SceneError(str(exc), name=exc.name) from None
+    if numerics["fem"].get("mesh") and base is not None:
+        numerics["fem"]["mesh"] = str(base / numerics["fem"]["mesh"])
+    methods = study["methods"]
+    ini = clean["initial"]
+    init = None
+    if times is not None:
+        if ini.get("mean") is None or ini.get("std") is None:
+            raise SceneError("initial.mean: a transient scene (study.times) needs [initial] "
+                             "mean = [x0, y0] and std = [sx, sy]", name="initial.mean")
+        init = {"mean": ini["mean"], "std": ini["std"]}
+        if "exact" in methods:
+            raise SceneError("study.methods: 'exact' is stationary only; remove it or "
+                             "study.times", name="study.methods")
+    elif ini:
+        raise SceneError("initial: only used with study.times (a transient scene)",
+                         name="initial")
+    quantities = study.get("quantities", STUDY_KEYS["study"]["quantities"].default)
+    if times is not None and set(quantities) & set(STATIONARY_ONLY):
+        raise SceneError(f"study.quantities: {sorted(set(quantities) & set(STATIONARY_ONLY))} "
+                         "are stationary only; remove them or study.times",
+                         name="study.quantities")
+    fp = clean["first_passage"]
+    if "first_passage" in quantities:
+        if fp.get("energy") is None:
+            raise SceneError("first_passage.energy: required key is missing (the quantity "
+                             "\"first_passage\" needs the critical energy H_c)",
+                             name="first_passage.energy")
+        fp = {"energy": fp["energy"], "start": fp.get("start", (0.0, 0.0)),
+              "times": fp.get("times")}
+    elif fp:
+        raise SceneError("first_passage: only used with the quantity \"first_passage\" in "
+                         "study.quantities", name="first_passage")
+    else:
+        fp = None
+    formats = clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default)
+    if "nc" in formats:
+        try:
+            import h5netcdf  # noqa: F401
+            import xarray  # noqa: F401
+        except ImportError:
+            raise SceneError("output.formats: \"nc\" (netCDF) needs xarray and h5netcdf: "
+                             "pip install 'fpk_vibro[data]'", name="output.formats") from None
+    scene_name = study.get("name") or name
+    out = clean["output"].get("directory")
+    out_dir = Path(out) if out else Path("results") / safe_name(scene_name)
+    if base is not None and not out_dir.is_absolute() and out:
+        out_dir = base / out_dir
+    return Scene(name=scene_name, system=system, methods=methods,
+                 quantities=quantities, first_passage=fp,
+                 times=times, numerics=numerics, initial=init, sweep=sweep,
+                 output_dir=out_dir,
+                 formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
+                 source=data)
+
+
+def check_scene(scene: Scene) -> list[dict[str, Any]]:
+    """Every check the run makes, per point and method, and the cost estimates.
+
+    Returns ``[{"parameters", "costs": {method: Cost}}]`` per point.
+
+    Raises
+    ------
+    SceneError
+        Naming the key (and the sweep point) of the first failure.
+    """
+    from .plan import plan
+    out = []
+    for params, system in scene.points():
+        costs = {}
+        if scene.first_passage is not None:
+            _check_first_passage(scene, params, system)
+        for method in scene.methods:
+            try:
+                costs[method] = plan(scene, method, system)
+            except InputError as exc:
+                key = _scene_key(method, exc)
+                at = f" (at {_label(params)})" if params else ""
+                if key == "study.methods" and not exc.rule.startswith(method):
+                    raise SceneError(f"{key}: {method}: {exc.rule}{at}", name=key) from None
+                raise SceneError(exc.keyed(key, at), name=key) from None
+        out.append({"parameters": params, "costs": costs})
+    return out
+
+
+def _check_first_passage(scene: Scene, params: dict, system: VibroImpactSystem) -> None:
+    """The [first_passage] energy and start on this point's system."""
+    from ..first_passage import check_energy, parse_start
+    at = f" (at {_label(params)})" if params else ""
+    fp = scene.first_passage
+    try:
+        energy = check_energy("first_passage", system, fp["energy"])
+        parse_start("first_passage", system, fp["start"], energy)
+    except InputError as exc:
+        key = f"first_passage.{exc.name}"
+        raise SceneError(exc.keyed(key, at), name=key) from None
+
+
+def _scene_key(method: str, exc: InputError) -> str:
+    """The scene key of a solver's error ``exc``."""
+    if exc.name in ("times", "quantities"):
+        return f"study.{exc.name}"
+    if exc.name == "initial" or exc.name.startswith(("mean", "std", "initial")):
+        return "initial." + ("std" if "std" in exc.name else "mean")
+    if exc.name == "system" or not exc.name:
+        return "study.methods"
+    if exc.name in FIELDS:
+        return FIELDS[exc.name].scene
+    if method in ("averaging", "fem", "montecarlo") and \
+            exc.name in _method_options(method).declared():
+        return f"{method}.{exc.name}"
+    return exc.name
