@@ -135,7 +135,7 @@ def build_all(system: VibroImpactSystem, layout: Layout, n_theta: int, n_panel: 
               phi_cut: float):
     """Every regime of ``system``: (low, highs), node data, H_end, nodes of the low regime."""
     from .. import scales
-    a, b, c = system.a, system.b, system.c
+    c = system.c
     nodes: list = []
     phi, H_end = 0.0, layout.floor
     low = Regime.empty_like(n_panel)
@@ -149,7 +149,7 @@ def build_all(system: VibroImpactSystem, layout: Layout, n_theta: int, n_panel: 
         else:
             h0 = 0.25 * A_max
         low, nodes, phi, t_end = build_regime(
-            system, system.potential, lambda A: A * (a + b * A * A), A_max, h0, 0.0,
+            system, system.potential, system.restoring_force, A_max, h0, 0.0,   # dH/dA = G'(A)
             phi_cut, n_panel, n_theta)
         H_end = float(system.potential(t_end))
     n_low = len(nodes)

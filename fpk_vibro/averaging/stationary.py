@@ -64,8 +64,7 @@ class AveragedSolution(Solution):
     # -- Φ and its panel structure ------------------------------------------------
     def _maps(self) -> list[tuple[Regime, Any, Any, bool]]:
         """(regime, H(t), dH/dt, is an s-regime) for the amplitude and s-regimes."""
-        a, b = self.system.a, self.system.b
-        out = [(self._low, self.system.potential, lambda A: A * (a + b * A * A), False)]
+        out = [(self._low, self.system.potential, self.system.restoring_force, False)]
         for E, reg in zip(self._layout.kinks, self._highs):
             out.append((reg, lambda s, E=E: E + s * s, lambda s: 2.0 * s, True))
         return out

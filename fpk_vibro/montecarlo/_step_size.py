@@ -105,7 +105,7 @@ def _bounce_times(system: VibroImpactSystem) -> list[tuple[float, float]]:
     lo, hi = system.x_bounds
     for side, w in system.walls:
         xw = w.position
-        F = -(system.a + system.b * xw * xw) * xw
+        F = -float(system.restoring_force(xw))
         if (F > 0 if side == "right" else F < 0):
             out.append((2.0 * (system.D1 + system.D2 * xw * xw) / (F * F), w.r))
     return out
@@ -140,7 +140,7 @@ def crossing_divisor(system: VibroImpactSystem, E: float) -> float:
     k = 0.125
     for _, w in system.walls:
         xw = w.position
-        F = abs((system.a + system.b * xw * xw) * xw)
+        F = abs(float(system.restoring_force(xw)))
         Dw = system.D1 + system.D2 * xw * xw
         phi = min(1.0, 2.0 * Dw / (F * v)) if F * v > 0 else 1.0
         k = max(k, _divisor(w.r, phi, 0.125))
