@@ -5,7 +5,7 @@ its first write to its last: a second run into the same directory is refused
 with one line, so two runs never mix their data.  The lock dies with its
 process (also under ``kill -9``), so a stale lock file never blocks a later run.
 Only the run holds it: the descriptor is close-on-exec (worker processes are
-fresh interpreters, :mod:`fpk_vibro.pool`) and a process forked during the run
+fresh interpreters, :mod:`fpk_vibro.app.pool`) and a process forked during the run
 closes its copy at once (``os.register_at_fork``), since an ``flock`` lives as
 long as any process has the open file, and an orphan would keep the directory
 "in use" after the run died.
@@ -128,7 +128,7 @@ def point_records(path: Path) -> dict[int, dict[str, Any]]:
 def finished_points(path: Path, source: dict[str, Any]) -> dict[int, dict[str, Any]]:
     """{index: record} of the points an earlier run of the scene ``source`` finished
     in ``path`` (failed, interrupted and missing points are left out: they are
-    computed again).  :func:`fpk_vibro.resume.select` adds the fingerprint checks.
+    computed again).  :func:`fpk_vibro.app.resume.select` adds the fingerprint checks.
 
     Raises :class:`InputError` if ``path`` holds the results of another scene.
     """

@@ -90,7 +90,7 @@ def run_jobs(fn: Callable[[Any], Any], jobs: list, n: int,
     ``fn`` must be importable (it is pickled by reference); an exception it raises
     is raised here.  A job whose worker dies yields ``died(job, reason)`` instead.
     Closing the generator (or an exception in it, e.g.
-    :class:`~fpk_vibro.interrupt.Interrupted`) ends every worker at once.
+    :class:`~fpk_vibro.app.interrupt.Interrupted`) ends every worker at once.
     """
     n = max(1, min(n, len(jobs)))
     todo, idle = deque(jobs), []

@@ -91,7 +91,7 @@ def select(out_dir: Path, scene: Any, points: list) -> tuple[dict[int, dict[str,
     how many it keeps and why the others are computed again.
 
     Raises :class:`~fpk_vibro._checks.InputError` (from
-    :func:`fpk_vibro.outdir.finished_points`) if ``results.json`` is another scene's.
+    :func:`fpk_vibro.app.outdir.finished_points`) if ``results.json`` is another scene's.
     """
     from .outdir import finished_points
     finished_points(out_dir, scene.source)       # refuses another scene's results.json

@@ -12,10 +12,8 @@ Layout of an output directory::
 """
 from __future__ import annotations
 
-import contextlib
 import importlib
 import os
-import socket
 import signal
 import time
 from pathlib import Path
@@ -28,9 +26,11 @@ from ..io import atomic_json, atomic_savez
 from ..model import VibroImpactSystem
 from ..progress import Progress
 from ..scales import density_grids
+from .execution import SchedulerLost, dask_client, execute
 from .interrupt import Interrupted, received, signals_handled
 from .outdir import OutputDir, holds, point_records
 from .plan import resolved_options, solver_kwargs
+from .results import storage_failed, write_results
 from .resume import clear_outputs, clear_temporaries, fingerprint, select, storage_fault
 from .scenes import Scene, check_scene
 
@@ -122,7 +122,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
               out_dir: Path, progress: bool | None = False, token: str | None = None
               ) -> dict[str, Any]:
     """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
-    from . import plotting
+    from . import plotting, run_plots
 
     record: dict[str, Any] = {"index": index, "parameters": params, "status": "done",
                               "fingerprint": fingerprint(scene, index, params, system),
@@ -175,15 +175,15 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                                    or passages):
         figs = record.setdefault("figures", [])
         if "impacts" in scene.quantities and system.has_barrier:
-            figs.append(plotting.impact_speeds(solutions, out_dir / f"p{index}_impact_speed.png",
+            figs.append(run_plots.impact_speeds(solutions, out_dir / f"p{index}_impact_speed.png",
                                                title=scene.name).name)
         if passages:
-            figs.append(plotting.reliability(passages, out_dir / f"p{index}_reliability.png",
+            figs.append(run_plots.reliability(passages, out_dir / f"p{index}_reliability.png",
                                              title=scene.name).name)
     if scene.transient and "png" in scene.formats and "moments" in scene.quantities:
         figs = record.setdefault("figures", [])
         for key in ("E_H", "E_x2", "E_y2"):
-            figs.append(plotting.moment_history(record["methods"], out_dir / f"p{index}_{key}_t.png",
+            figs.append(run_plots.moment_history(record["methods"], out_dir / f"p{index}_{key}_t.png",
                                                 key=key, title=scene.name).name)
     if "vtu" in scene.formats and "fem" in solutions:
         fem_sol = solutions["fem"][-1] if scene.transient else solutions["fem"]
@@ -230,15 +230,15 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
               warn: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run every point of ``scene``; returns (and writes) the results document.
 
-    Everything is checked before any work (:func:`fpk_vibro.scenes.check_scene`,
+    Everything is checked before any work (:func:`fpk_vibro.app.scenes.check_scene`,
     the output directory, its lock).  ``progress`` (None: on a terminal) is passed
     to the solvers of a run in this process (one point, or ``workers=1``).
     ``resume``: keep the points an earlier run of the same scene finished in the
-    output directory and compute only the others (:func:`fpk_vibro.resume.select`:
+    output directory and compute only the others (:func:`fpk_vibro.app.resume.select`:
     a record is kept when its fingerprints match and its files are there; failed
     points are computed again); ``log`` gets one line saying how many and why.
     Without it the run clears the earlier run's outputs first (a run owns its
-    directory: :func:`fpk_vibro.resume.clear_outputs`).  A full disk stops the run:
+    directory: :func:`fpk_vibro.app.resume.clear_outputs`).  A full disk stops the run:
     ``results.json`` lists what finished (``"status": "failed"``, ``"error"`` names
     the file) and the :class:`OSError` raised names the file and says what was kept.
     SIGINT or SIGTERM stops the
@@ -258,7 +258,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
     points = scene.points()
     warn = warn or log
     with OutputDir(out_dir, "--out" if out is not None else "output.directory") as lock, \
-            signals_handled(), _dask(scheduler) as client:
+            signals_handled(), dask_client(scheduler) as client:
         if resume:                     # only records of this scene, point and settings
             records, line = select(out_dir, scene, points)
             log(line)
@@ -278,7 +278,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
                              total=len(points), unit="point")
         sweep_bar.update(len(records))
         try:
-            for rec in _execute(jobs, serial, workers, client):
+            for rec in execute(_point_job, jobs, serial, workers, client):
                 records[rec["index"]] = _report(rec, len(points), log, warn)
                 sweep_bar.update(len(records))
         except Interrupted as exc:
@@ -309,184 +309,12 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
         wall = time.perf_counter() - t0
         if fault is None:
             try:
-                return _write_results(scene, points, records, out_dir, wall, signum)
+                return write_results(scene, points, records, out_dir, wall, signum)
             except OSError as exc:
                 if not storage_fault(exc):
                     raise
                 fault = exc
-        raise _storage_failed(fault, scene, points, records, out_dir, wall, signum)
-
-
-def _storage_failed(fault: OSError, scene: Scene, points: list, records: dict[int, dict],
-                    out_dir: Path, wall: float, signum: int | None) -> OSError:
-    """After a write failed for lack of space: ``results.json`` with every finished point
-    (``"status": "failed"``, ``"error"`` names the file) if it can still be written; the
-    one-line error that names the file and says what was kept."""
-    clear_temporaries(out_dir)
-    n = sum(r.get("status") == "done" for r in records.values())
-    try:
-        _write_results(scene, points, records, out_dir, wall, signum, fault)
-        kept = f"results.json lists the {n} finished point(s)"
-    except OSError as exc:
-        if not storage_fault(exc):
-            raise
-        clear_temporaries(out_dir)
-        kept = (f"the {n} finished point(s) are kept in {str(out_dir / 'points')!r} "
-                "(results.json could not be written)")
-    return OSError(fault.errno, f"{fault.strerror or fault}; {kept}; free space and continue "
-                   "with --resume", fault.filename)
-
-
-class SchedulerLost(RuntimeError):
-    """The Dask scheduler went away during the sweep."""
-
-
-@contextlib.contextmanager
-def _dask(address: str | None):
-    """A Dask client of ``address`` (None: no client), connected with every step
-    bounded (:func:`fpk_vibro.scheduler.client`), closed at the end."""
-    if address is None:
-        yield None
-        return
-    from .scheduler import client as connect, quiet
-    client = connect(address)
-    client.fpk_address = address
-    try:
-        with quiet():
-            yield client
-    finally:
-        with quiet():
-            try:
-                client.close(timeout=5)
-            except Exception:          # a lost scheduler: nothing to close
-                pass
-
-
-def _died(job: tuple, reason: str) -> dict[str, Any]:
-    """The record of a point whose worker died: what it wrote, or a failure that is
-    not written to ``points/`` (so that ``--resume`` computes it again)."""
-    index, params, out_dir = job[1], job[2], job[4]
-    rec = point_records(out_dir).get(index)
-    if rec is not None and rec.get("status") in ("done", "failed"):
-        return rec
-    return {"index": index, "parameters": params, "status": "failed",
-            "error": f"{reason}; --resume computes it again"}
-
-
-def _execute(jobs: list, serial: bool, workers: int | None, client: Any = None):
-    """Yield each job's record as it finishes, in this process, in worker processes
-    (:mod:`fpk_vibro.pool`) or on Dask (``client``)."""
-    if not jobs:
-        return
-    if client is not None:
-        yield from _on_dask(client, jobs)
-        return
-    if serial:
-        for job in jobs:
-            yield _point_job(job)
-        return
-    from .pool import run_jobs
-    yield from run_jobs(_point_job, jobs, workers or os.cpu_count() or 1, _died)
-
-
-def _on_dask(client: Any, jobs: list):
-    """The jobs on Dask: a task that fails fails its point; a lost scheduler raises
-    :class:`SchedulerLost` after every point reported so far."""
-    from distributed import as_completed
-    address = getattr(client, "fpk_address", "")
-    futures = client.map(_point_job, jobs, pure=False)
-    job_of = {f.key: job for f, job in zip(futures, jobs)}
-    lost = False
-    try:
-        for fut in as_completed(futures, loop=client.loop):
-            try:
-                rec = fut.result()
-            except (KeyboardInterrupt, GeneratorExit, SystemExit):
-                raise
-            except BaseException as exc:   # CancelledError is one (not an Exception)
-                if "connection-lost" in str(getattr(exc, "reason", "")) or \
-                        client.status not in ("running", "newly-created") or \
-                        _scheduler_gone(exc, address):
-                    lost = True
-                    raise SchedulerLost(f"the Dask scheduler {address} was lost "
-                                        "mid-sweep") from None
-                job = job_of[fut.key]
-                rec = {"index": job[1], "parameters": job[2], "status": "failed",
-                       "error": "on Dask: " + " ".join(
-                           f"{type(exc).__name__}: {exc}".split())[:500]}
-            yield rec
-    except BaseException:
-        if not lost:
-            try:
-                client.cancel(futures, force=True)
-            except Exception:
-                pass
-        raise
-
-
-def _scheduler_gone(exc: BaseException, address: str) -> bool:
-    """Whether ``exc`` (fetching a result) is the scheduler's loss: a closed
-    connection while nothing listens at ``address`` any more.  The client notices
-    the loss itself only later, so a result fetched in between would otherwise be
-    taken for a point's own failure."""
-    from distributed.comm import CommClosedError, parse_address, parse_host_port
-    if not isinstance(exc, (CommClosedError, OSError)) or not address:
-        return False
-    try:
-        host, port = parse_host_port(parse_address(address)[1])
-        socket.create_connection((host, port), timeout=2.0).close()
-    except OSError:
-        return True
-    except Exception:      # an address the check cannot read: not proof of a loss
-        return False
-    return False
-
-
-def _write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]],
-                   out_dir: Path, wall: float, signum: int | None,
-                   fault: OSError | None = None) -> dict[str, Any]:
-    """results.json (every point: finished, failed or interrupted) and densities.npz;
-    after a storage ``fault``, results.json alone (``"status": "failed"``)."""
-    from .._version import __version__
-    listed = []
-    for i, (params, _) in enumerate(points):
-        listed.append(records.get(i) or {"index": i, "parameters": params,
-                                         "status": "interrupted"})
-    doc = {"scene": scene.source, "name": scene.name, "stationary": not scene.transient,
-           "fpk_vibro_version": __version__, "wall_time_s": wall,
-           "status": "complete" if signum is None else "interrupted", "points": listed}
-    if signum is not None:
-        doc["signal"] = signal.Signals(signum).name
-    if fault is not None:        # the rest is made again by --resume
-        doc["status"], doc["error"] = "failed", f"{fault.filename}: {fault.strerror or fault}"
-        atomic_json(out_dir / "results.json", doc)
-        return doc
-    atomic_json(out_dir / "results.json", doc)
-    if "npz" in scene.formats:
-        merged: dict[str, np.ndarray] = {}
-        for r in listed:
-            f = out_dir / "points" / f"p{r['index']}.npz"
-            if r.get("status") == "done" and f.exists():
-                with np.load(f) as data:
-                    merged.update({k: data[k] for k in data.files})
-        if merged:
-            atomic_savez(out_dir / "densities.npz", merged)
-            if scene.sweep and "png" in scene.formats and signum is None:
-                from . import plotting
-                doc["figures"] = [plotting.sweep_overlay(
-                    merged, listed, q, out_dir / f"sweep_{q}.png", title=scene.name).name
-                    for q in ("energy", "x", "y") if q in scene.quantities]
-                if "moments" in scene.quantities and not scene.transient and any(
-                        r.get("status") == "done" for r in listed):
-                    doc["figures"].append(plotting.sweep_moments(
-                        listed, out_dir / "sweep_moments.png", title=scene.name).name)
-                atomic_json(out_dir / "results.json", doc)
-    if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
-        from ..io import atomic_files
-        from ..labelled import NETCDF_ENGINE, run_dataset
-        atomic_files(out_dir / "results.nc", lambda p: run_dataset(out_dir).to_netcdf(
-            p, engine=NETCDF_ENGINE))
-    return doc
+        raise storage_failed(fault, scene, points, records, out_dir, wall, signum)
 
 
 def _report(record: dict[str, Any], total: int, log: Callable[[str], None],

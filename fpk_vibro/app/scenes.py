@@ -9,7 +9,7 @@ rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the README'
 table is generated from it).
 
 :func:`parse_scene` checks every key; :func:`check_scene` then runs, per point and
-method, every check the solver itself runs (:mod:`fpk_vibro.plan`) and estimates the
+method, every check the solver itself runs (:mod:`fpk_vibro.app.plan`) and estimates the
 cost.  Any failure is a :class:`SceneError` with one line naming the key.
 """
 from __future__ import annotations
