@@ -3,7 +3,7 @@
 ``[system]`` and ``[barriers]`` come from :data:`fpk_vibro.model.FIELDS` (the walls'
 sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[averaging]``, ``[fem]``,
 ``[montecarlo]`` from each method's ``Options``, the rest from :data:`STUDY_KEYS`
-here.  Parsing a scene is :mod:`fpk_vibro.scenes`.
+here.  Parsing a scene is :mod:`fpk_vibro.app.scenes`.
 """
 from __future__ import annotations
 
@@ -155,22 +155,26 @@ def __getattr__(name: str) -> Any:
 
 
 def schema_table() -> str:
-    """The scene keys as a Markdown table (key, default, allowed, meaning) for the README."""
+    """The scene keys as a Markdown table (key, default, allowed, meaning) for the README.
+
+    Defaults are written as a scene writes them (TOML): ``true``, ``"auto"``,
+    ``[0.0, 0.0]``; a default that differs between stationary and transient runs
+    names both, and a key without a default is "not set".
+    """
     rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
     for table in TABLES:
         for k, opt in table_keys(table).items():
             if opt.default is REQUIRED:
                 default = "required"
-            elif isinstance(opt.default, PerMode) and opt.auto:
-                default = " / ".join(f"{mode}: " + (_toml(v) if v is not None else opt.auto)
-                                     for mode, v in (("stationary", opt.default.stationary),
-                                                     ("transient", opt.default.transient)))
+            elif isinstance(opt.default, PerMode):
+                default = " / ".join(
+                    f"{mode}: " + (_toml(v) if v is not None else opt.auto or "not set")
+                    for mode, v in (("stationary", opt.default.stationary),
+                                    ("transient", opt.default.transient)))
             elif opt.auto in ("none", "") and opt.default is None:
-                default = "—"
+                default = "not set"
             elif opt.auto:
                 default = f"auto: {opt.auto}"
-            elif isinstance(opt.default, tuple):
-                default = "[" + ", ".join(f'"{v}"' for v in opt.default) + "]"
             else:
                 default = _toml(opt.default)
             allowed = opt.describe() + (f" ({opt.unit})" if opt.unit else "")
@@ -183,5 +187,17 @@ def schema_table() -> str:
 
 
 def _toml(value: Any) -> str:
-    from ..options import _toml as toml
-    return toml(value)
+    """A default as TOML: ``true``, ``"auto"``, ``[0.0, 0.0]``, ``1e-08``.
+
+    >>> _toml(True), _toml("auto"), _toml((0.0, 0.0)), _toml(["json", "npz"]), _toml(None)
+    ('true', '"auto"', '[0.0, 0.0]', '["json", "npz"]', 'not set')
+    """
+    if value is None:
+        return "not set"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
