@@ -44,9 +44,10 @@ from .generator import (
     tensor_index,
 )
 from .mesh import structured_mesh
-from .options import TENSOR_ONLY, load_strip_mesh
+from .options import TENSOR_ONLY
 from .solution import FEMSolution
 from .solve import solve_stationary
+from .strip_mesh import load_strip_mesh
 
 __all__ = ["Discretisation", "build", "default_mesh"]
 

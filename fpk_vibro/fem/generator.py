@@ -29,7 +29,7 @@ import skfem
 from ..model import VibroImpactSystem
 from . import forms
 from .impact import coupling_matrix, wall_matrix_1d
-from .mesh import Domain, Wall, wall_restitutions
+from .mesh import Domain, StripEnd, wall_restitutions
 
 __all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
            "assemble_tensor_bases", "tensor_index", "tensor_to_basis", "kron_sum",
@@ -72,7 +72,7 @@ def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
         raise ValueError("mesh: y = 0 must be a mesh line (the walls' outflow and inflow "
                          "halves must be unions of cell edges)")
     rl, rr = wall_restitutions(system)
-    return Domain(x0, x1, y1, (Wall(x0, rl, -1), Wall(x1, rr, +1)))
+    return Domain(x0, x1, y1, (StripEnd(x0, rl, -1), StripEnd(x1, rr, +1)))
 
 
 def assemble(system: VibroImpactSystem, basis: skfem.CellBasis, *,

@@ -31,18 +31,18 @@ import numpy as np
 import scipy.sparse as sp
 import skfem
 
-from .mesh import Wall
+from .mesh import StripEnd
 
 __all__ = ["wall_quadrature", "coupling_matrix", "wall_matrix_1d"]
 
 
-def wall_quadrature(wall: Wall, y_wall_nodes: np.ndarray, y_max: float,
+def wall_quadrature(wall: StripEnd, y_wall_nodes: np.ndarray, y_max: float,
                     intorder: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Quadrature on the outflow half of ``wall``, split at the mapped nodes.
 
     Parameters
     ----------
-    wall : Wall
+    wall : StripEnd
     y_wall_nodes : ndarray
         y-coordinates of the mesh nodes on the wall.
     y_max : float
@@ -71,7 +71,7 @@ def wall_quadrature(wall: Wall, y_wall_nodes: np.ndarray, y_max: float,
     return y, -wall.r * y, wq * sq
 
 
-def coupling_matrix(basis: skfem.CellBasis, wall: Wall, y_max: float,
+def coupling_matrix(basis: skfem.CellBasis, wall: StripEnd, y_max: float,
                     intorder: int) -> sp.csr_matrix:
     """The matrix B of one wall on a general 2-D mesh (module docstring).
 
@@ -95,7 +95,7 @@ def coupling_matrix(basis: skfem.CellBasis, wall: Wall, y_max: float,
     return ((P - Pr).T @ sp.diags(w) @ P).tocsr()
 
 
-def wall_matrix_1d(ybasis: skfem.CellBasis, wall: Wall, y_max: float,
+def wall_matrix_1d(ybasis: skfem.CellBasis, wall: StripEnd, y_max: float,
                    intorder: int) -> sp.csr_matrix:
     """The y-factor C of one wall for Kronecker assembly.
 

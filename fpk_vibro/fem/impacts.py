@@ -70,7 +70,7 @@ def impact_statistics(sol) -> dict[str, dict[str, float]]:
         m1, m2, m3 = (float(np.sum(w * u ** k * p)) for k in (1, 2, 3))
         out[side] = {"rate": m1, "mean_speed": m2 / m1 if m1 > 0 else float("nan"),
                      "mean_square_speed": m3 / m1 if m1 > 0 else float("nan"),
-                     "energy_rate": 0.5 * (1.0 - wall.r ** 2) * m3}
+                     "energy_rate": float(np.sum(w * u * wall.loss(u) * p))}
     return out
 
 

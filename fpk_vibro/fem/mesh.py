@@ -25,12 +25,15 @@ from .. import scales
 from ..model import VibroImpactSystem
 from ..scales import TAIL_MASS
 
-__all__ = ["Wall", "Domain", "domain", "default_y_max", "axis_nodes", "wall_nodes",
+__all__ = ["StripEnd", "Domain", "domain", "default_y_max", "axis_nodes", "wall_nodes",
            "structured_mesh", "load_mesh", "wall_restitutions", "TAIL_MASS"]
 
+
 @dataclass(frozen=True)
-class Wall:
-    """A wall x = ``x`` with restitution ``r``; ``side`` is +1 (right) or −1 (left).
+class StripEnd:
+    """An end x = ``x`` of the strip with restitution ``r``; ``side`` is +1 (right)
+    or −1 (left): a wall of the system (:class:`fpk_vibro.model.Wall`, its ``r``) or
+    the elastic end (r = 1) of a truncated side.
 
     Its outflow half is ``side · y > 0`` (docs/theory.md, §Impact coupling).
     """
@@ -45,7 +48,7 @@ class Domain:
     x0: float
     x1: float
     y_max: float
-    walls: tuple[Wall, Wall]
+    walls: tuple[StripEnd, StripEnd]
 
 
 def default_y_max(system: VibroImpactSystem) -> float:
@@ -74,7 +77,7 @@ def domain(system: VibroImpactSystem, y_max: float | None = None) -> Domain:
         if y_max is None:
             y_max = math.sqrt(2.0 * (H_t - scales.potential_min(system)))
     rl, rr = wall_restitutions(system)
-    return Domain(lo, hi, float(y_max), (Wall(lo, rl, -1), Wall(hi, rr, +1)))
+    return Domain(lo, hi, float(y_max), (StripEnd(lo, rl, -1), StripEnd(hi, rr, +1)))
 
 
 def wall_restitutions(system: VibroImpactSystem) -> tuple[float, float]:

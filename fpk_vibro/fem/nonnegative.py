@@ -27,6 +27,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import convolve1d
 
+from .compare import difference
+from .solution import FEMSolution
+
 __all__ = ["redistribute", "PASSES"]
 
 #: Passes of widening blocks (half-widths 1, 2, 4, …) before the global fallback.
@@ -158,8 +161,6 @@ def correct(sol):
     (itself if it has no negative nodal value), with ``info["correction"]``:
     ``L1`` = ∫|p_h − p_c|, the relative moment changes (keys of the error
     estimate), ``moved`` and ``passes`` (:func:`redistribute`)."""
-    from .estimate import difference
-    from .solution import FEMSolution
     if sol.dofs.min() >= 0.0:
         sol._info["nonnegative"] = True
         sol._info["correction"] = {"L1": 0.0, "moved": 0.0, "passes": 0,

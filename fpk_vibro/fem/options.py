@@ -18,6 +18,9 @@ from ..budget import Cost
 from ..model import VibroImpactSystem
 from ..options import Options as _Options
 from ..options import PerMode, option
+from .solve import SOLVERS
+from .strip_mesh import load_strip_mesh
+from .wall_layers import MAX_CONTRAST, check_wall_layers, wall_layers  # noqa: F401
 
 __all__ = [
     "DEFAULT_NX",
@@ -31,7 +34,6 @@ __all__ = [
 ]
 
 S, T = ("stationary",), ("transient",)
-SOLVERS = ("auto", "direct", "amg", "amg-sa")
 #: positivity values: the tensor-grid generator's (stationary and transient), then
 #: the algebraic ones (stationary, any mesh).  "auto" (the stationary default):
 #: Galerkin made non-negative by a local mass-keeping correction whose changes
@@ -49,9 +51,6 @@ DEFAULT_RTOL = 1e-4
 #: (fem.mesh.wall_nodes; 2 against 3 and uniform on 20 random scenes:
 #: docs/measurements.md, §FE error estimate and rtol).
 WALL_GRADING = 2.0
-#: Largest c (max G − min G)/D on the strip (the density spans e^this) that the FE
-#: solve is accepted for (measurements: Options._check_wall_layers).
-MAX_CONTRAST = 60.0
 
 
 def _mesh(name: str, value: Any, where: str | None) -> Any:
@@ -70,9 +69,14 @@ def _positivity(name: str, value: Any, where: str | None) -> Any:
     raise invalid(where, name, f"false, true or one of {list(POSITIVITY[2:])}", value)
 
 
+#: What a transient reads of a Discretisation (checked by duck typing: the class
+#: builds and solves, which no option check may import).
+_DISCRETISATION_ATTRIBUTES = ("system", "mesh", "L", "M", "unit", "order", "points",
+                              "positivity")
+
+
 def _discretisation(name: str, value: Any, where: str | None) -> Any:
-    from .discretisation import Discretisation
-    if not isinstance(value, Discretisation):
+    if not all(hasattr(value, a) for a in _DISCRETISATION_ATTRIBUTES):
         raise invalid(where, name, "a Discretisation from fem.transient.discretise", value)
     return value
 
@@ -264,48 +268,7 @@ class Options(_Options):
                           "3.3e8 times the true one at y_max = 1e6")
         if system.c > 0 and system.has_barrier:
             # (rtol chooses nx itself, from the same layers: estimate.start_nx)
-            self._check_wall_layers(system, dom, nx, bad, layers=self.rtol is None)
-
-    def _check_wall_layers(self, system: VibroImpactSystem, dom: Any, nx: int, bad: Any,
-                           layers: bool = True) -> None:
-        """Refuse a density pressed against a wall that the FE solve cannot
-        represent: spanning more than e^MAX_CONTRAST over the strip, or in a layer
-        thinner than a node spacing.
-
-        Where the force −G'(x_w) presses into a wall (softening b < 0 beyond the
-        hump, a preloaded wall) the density sits in a layer of width ℓ = D/(c |G'|)
-        against it.  Measured on the exact (r = 1) density, a = 1, c = 0.025,
-        D1 = 0.01, walls ±0.6: E[H] within 0.2 % for h/(degree·ℓ) ≤ 1 (Q2, b = −300),
-        15 % off at 1.7 (b = −500), 99 % at 2.4 (b = −700); with the contrast
-        c (max G − min G)/D = 56 (b = −700) Q1 at h = 0.9 ℓ was within 0.01 %, at
-        80 (b = −1000) every mesh up to nx = 3000 was off by 10–100 % (or singular).
-        """
-        import numpy as np
-        from ..fem.integrals import potential_range
-        found = wall_layers(system)
-        if not found:      # (a low-noise peak inside the strip is a question of nx, ny)
-            return
-        x = np.linspace(dom.x0, dom.x1, 4001)
-        g_lo, g_hi = potential_range(system, np.array([dom.x0]), np.array([dom.x1]))
-        D = float(system.noise_intensity(max(abs(dom.x0), abs(dom.x1))))
-        contrast = system.c * float(g_hi[0] - g_lo[0]) / D
-        if contrast > MAX_CONTRAST:
-            G = system.potential(x)
-            raise bad("system", f"must give a density spanning at most e^{MAX_CONTRAST:g} "
-                      f"on the strip for fem, c (max G - min G)/D <= {MAX_CONTRAST:g}; got "
-                      f"{contrast:.3g} (a={system.a}, b={system.b}, c={system.c}: G falls "
-                      f"from {G.max():.3g} to {G.min():.3g} at x = {x[np.argmin(G)]:.3g}; "
-                      "at 80 no mesh up to nx = 3000 came within 10 %)")
-        if not layers:
-            return
-        h = (dom.x1 - dom.x0) / (nx * self.degree)
-        for side, xw, push, ell in found:
-            if h > ell:
-                need = math.ceil((dom.x1 - dom.x0) / (self.degree * ell))
-                raise bad("nx", f"must be at least {need} here (a node spacing below the "
-                          f"width {ell:.3g} = D/(c |G'|) of the layer the force {push:.3g} "
-                          f"presses against the {side} wall x = {xw:g}; ny need not grow); "
-                          f"got {nx}{'' if self.nx is not None else ' (the default)'}")
+            check_wall_layers(self, system, dom, nx, bad, layers=self.rtol is None)
 
     def validate_initial(self, system: VibroImpactSystem, init: Any) -> None:
         """The mean of a Gaussian start must lie inside the truncated strip."""
@@ -388,64 +351,7 @@ class Options(_Options):
                     0.2 + 10 * factor_s + steps * per_step, key)
 
 
-def wall_layers(system: VibroImpactSystem) -> list[tuple[str, float, float, float]]:
-    """(side, x_w, push, ℓ) for each wall the force −G'(x_w) presses the density
-    against (push > 0 towards it), ℓ = D(x_w)/(c·push) the width of the layer there
-    (c > 0; none with c = 0)."""
-    out = []
-    if system.c <= 0:
-        return out
-    for side, sign in (("left", -1), ("right", 1)):
-        w = getattr(system, side)
-        if w is None:
-            continue
-        xw = w.position
-        push = -sign * (system.a * xw + system.b * xw ** 3)
-        if push > 0:
-            out.append((side, xw, push,
-                        float(system.noise_intensity(xw)) / (system.c * push)))
-    return out
-
-
 def thermal_velocity(system: VibroImpactSystem) -> float:
     """sqrt(D1/λ): the least |y| extent of a truncated strip (``y_max`` or a mesh)."""
     from ..scales import energy_scale
     return math.sqrt(energy_scale(system))
-
-
-def load_strip_mesh(system: VibroImpactSystem, mesh: Any, where: str = "fem"):
-    """``mesh`` (a skfem.Mesh or a file) checked to be a mesh of the strip of ``system``.
-
-    Raises :class:`InputError` naming ``mesh`` when the file cannot be read as a
-    linear quadrilateral or triangle mesh, or when it is not a strip: walls at its
-    x-extremes where the system has barriers, symmetric in y, no cell across y = 0.
-    """
-    import numpy as np
-    import skfem
-
-    from .generator import element_for, mesh_domain
-    if not isinstance(mesh, skfem.Mesh):
-        path = Path(mesh)
-        if not path.is_file():
-            raise invalid(where, "mesh", "an existing mesh file", str(mesh))
-        if path.stat().st_size > 2 ** 30:
-            raise invalid(where, "mesh", "a mesh file below 1 GiB", str(mesh))
-        try:
-            mesh = skfem.Mesh.load(str(path))
-        except Exception as exc:  # meshio raises many kinds on foreign files
-            reason = " ".join(str(exc).split())[:120] or type(exc).__name__
-            raise invalid(where, "mesh", "a mesh file meshio can read", str(path),
-                          reason) from None
-    try:
-        element_for(mesh, 1)
-        mesh_domain(system, mesh)
-    except ValueError as exc:
-        raise invalid(where, "mesh", "a linear quad or triangle mesh of the strip",
-                      getattr(mesh, "__class__").__name__, str(exc)) from None
-    y = mesh.p[1][mesh.t]
-    scale = max(float(np.abs(mesh.p[1]).max()), 1e-300)
-    crosses = (y.min(axis=0) < -1e-12 * scale) & (y.max(axis=0) > 1e-12 * scale)
-    if np.any(crosses):
-        raise invalid(where, "mesh", "a mesh with y = 0 a mesh line (no cell across it)",
-                      f"{int(crosses.sum())} cells across y = 0")
-    return mesh

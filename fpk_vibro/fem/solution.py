@@ -8,18 +8,7 @@ How the derived quantities are computed from the FE function p_h(x, y):
   and no inverse map, so every evaluation, the moments and the power balance
   below cost O(DOFs) (10⁶ DOFs: moments 0.3 s; docs/measurements.md, §Scale).
   On other meshes (mesh files, triangles, general assembly) by ``Basis.probes``.
-- ``pdf_x``, ``pdf_y``: on a tensor-product quadrilateral mesh exactly,
-  p(x) = Σ_i ψ_i(x) Σ_j P_ij ∫χ_j dy (and likewise in y); on other meshes by a
-  composite Gauss rule across the strip split at the mesh's node coordinates.
-- ``pdf_energy`` (coarea formula): since ∂H/∂y = y,
-
-      p(H) = ∫ Σ_± p(x, ±√(2H − 2G(x))) / √(2H − 2G(x)) dx   over {G(x) < H} ∩ strip,
-
-  and with x = A sin θ (A the amplitude; docs/theory.md, §Energy and orbits) the
-  integrand is smooth:
-  dx / √(2H − 2G) = dθ / √(a + b A² (1 + sin²θ)/2); θ runs over the part of
-  [−π/2, π/2] inside the strip; Gauss–Legendre in θ.  Needs a monotone G on each
-  side (a > 0); otherwise NotImplementedError.
+- ``pdf_x``, ``pdf_y``, ``pdf_energy``: :mod:`fpk_vibro.fem.marginals`.
 - ``moments``: E[x²], ..., E[y⁴] are functionals of p_h by the element quadrature
   (order 2k + 3: exact for the weights x⁴, y⁴ times Q_k / P_k; on the tensor mesh
   the same tensor Gauss rule by 1-D contractions), divided by ∫ p_h;
@@ -28,10 +17,9 @@ How the derived quantities are computed from the FE function p_h(x, y):
   ``P_impact = ∫_{H > G(Δ)} p_h / ∫ p_h`` over the mesh itself, cells cut by the
   level set integrated where it is explicit (:mod:`fpk_vibro.fem.integrals`): no
   energy grid, so no scale of Δ or of the noise can be missed.  Any a, b.
-- Resolution diagnostics (``info["negative_mass"]``, ``info["moment_shift"]``,
-  ``info["under_resolved"]``, ``info["under_resolved_reason"]``,
-  ``info["moments_of"]``): see
-  :meth:`FEMSolution.resolution`.
+- Resolution diagnostics (``info["negative_mass"]``, ``"moment_shift"``,
+  ``"under_resolved"``, ``"under_resolved_reason"``, ``"moments_of"``):
+  :meth:`FEMSolution.resolution`, :mod:`fpk_vibro.fem.under_resolved`.
 """
 from __future__ import annotations
 
@@ -43,15 +31,15 @@ import skfem
 from skfem import Functional
 
 from ..model import VibroImpactSystem
-from ..solution import Rule, Solution, Stored
+from ..solution import Solution
 from . import integrals
-from .options import Options
+from .marginals import energy_density, marginal_x, marginal_y
+from .solution_files import (META_SCHEMA, array_schema, check_state, state, state_mesh,
+                             write_mesh_file)
+from .under_resolved import RESOLUTION_TOL, diagnosis, flag_estimate  # noqa: F401
 
 __all__ = ["FEMSolution"]
 
-_NTHETA = 96
-#: Resolution tolerance (see :meth:`FEMSolution.resolution`).
-RESOLUTION_TOL = 1e-3
 
 
 class FEMSolution(Solution):
@@ -75,6 +63,9 @@ class FEMSolution(Solution):
     """
 
     kind = "fem"
+    #: :meth:`error_estimate`'s estimator, :func:`fpk_vibro.fem.estimate.error_estimate`,
+    #: set by that module (it solves a richer level: this module cannot import it)
+    estimator: Any = None
 
     def __init__(self, system: VibroImpactSystem, mesh: skfem.Mesh, degree: int,
                  dofs: np.ndarray, *, residual: float = float("nan"),
@@ -201,41 +192,14 @@ class FEMSolution(Solution):
         return self._clip(self._eval(x, y))
 
     def pdf_x(self, x):
-        """p(x) = ∫ p_h(x, y) dy (exact on tensor quad meshes; module docstring)."""
-        x = np.asarray(x, float)
-        if self._tensor is not None:
-            xb, yb, P = self._tensor_factors()
-            xf = x.ravel()
-            inside = (xf >= self._x0) & (xf <= self._x1)
-            out = np.zeros(xf.size)
-            if inside.any():
-                out[inside] = self._field().line(xb, xb.mesh.p[0], xf[inside],
-                                                 P @ self._line_integral(yb))
-            return self._clip(out.reshape(x.shape))
-        nodes, w = self._composite(np.unique(self.mesh.p[1]))
-        vals = self._eval(x[..., None], nodes)
-        return self._clip(vals @ w)
+        """p(x) = ∫ p_h(x, y) dy (exact on tensor quad meshes;
+        :mod:`fpk_vibro.fem.marginals`)."""
+        return marginal_x(self, x)
 
     def pdf_y(self, y):
-        """p(y) = ∫ p_h(x, y) dx (exact on tensor quad meshes; module docstring)."""
-        y = np.asarray(y, float)
-        if self._tensor is not None:
-            xb, yb, P = self._tensor_factors()
-            yf = y.ravel()
-            inside = np.abs(yf) <= self.y_max
-            out = np.zeros(yf.size)
-            if inside.any():
-                out[inside] = self._field().line(yb, yb.mesh.p[0], yf[inside],
-                                                 P.T @ self._line_integral(xb))
-            return self._clip(out.reshape(y.shape))
-        nodes, w = self._composite(np.unique(self.mesh.p[0]))
-        vals = self._eval(nodes, y[..., None])
-        return self._clip(vals @ w)
-
-    def _composite(self, breaks: np.ndarray, npts: int = 4):
-        qb = skfem.CellBasis(skfem.MeshLine(breaks), skfem.ElementLineP0(),
-                             intorder=2 * npts - 1)
-        return np.asarray(qb.global_coordinates())[0].ravel(), qb.dx.ravel()
+        """p(y) = ∫ p_h(x, y) dx (exact on tensor quad meshes;
+        :mod:`fpk_vibro.fem.marginals`)."""
+        return marginal_y(self, y)
 
     @staticmethod
     def has_energy_density(system) -> bool:
@@ -244,31 +208,8 @@ class FEMSolution(Solution):
         return system.a > 0 or (system.a == 0 and system.b > 0)
 
     def pdf_energy(self, H):
-        """Density of H from p_h by the coarea formula (module docstring)."""
-        s = self.system
-        if not self.has_energy_density(s):
-            raise NotImplementedError("pdf_energy of a FEMSolution needs a > 0, or a = 0 "
-                                      "< b (G monotone on each side)")
-        H = np.asarray(H, float)
-        Hf = H.ravel()
-        out = np.zeros(Hf.size)
-        pos = Hf > 0
-        A = s.amplitude(Hf[pos])
-        ok = np.isfinite(A) & (A > 0)
-        idx = np.flatnonzero(pos)[ok]
-        A = A[ok]
-        if idx.size:
-            t, wt = np.polynomial.legendre.leggauss(_NTHETA)
-            lo = np.arcsin(np.clip(self._x0 / A, -1, 1))
-            hi = np.arcsin(np.clip(self._x1 / A, -1, 1))
-            th = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * t[None, :]
-            jac = 0.5 * (hi - lo)[:, None] * wt[None, :]
-            xq = A[:, None] * np.sin(th)
-            yq = np.sqrt(np.maximum(2.0 * (Hf[idx][:, None] - s.potential(xq)), 0.0))
-            den = np.sqrt(s.a + 0.5 * s.b * A[:, None] ** 2 * (1.0 + np.sin(th) ** 2))
-            vals = self._eval(xq, yq) + self._eval(xq, -yq)
-            out[idx] = np.sum(vals * jac / den, axis=1)
-        return self._clip(out.reshape(H.shape))
+        """Density of H from p_h by the coarea formula (:mod:`fpk_vibro.fem.marginals`)."""
+        return energy_density(self, H)
 
     # -- moments and resolution ----------------------------------------------------------
     @property
@@ -291,17 +232,7 @@ class FEMSolution(Solution):
         return integrals.element_quadrature(self)
 
     def _record(self, q: dict[str, Any]) -> None:
-        diag = integrals.diagnose(q, RESOLUTION_TOL)
-        change = self._info.get("correction") or {}
-        moved = max([float(change.get("L1", 0.0))]
-                    + [float(v) for k, v in change.items() if k in ("E_H", "E_x2", "E_y2")])
-        if moved > RESOLUTION_TOL:       # the non-negative correction changed p this much
-            reason = (f"the non-negative correction changed the density by {moved:.2g} "
-                      f"(L1 or a relative moment) > {RESOLUTION_TOL:g}: Galerkin "
-                      "undershoots strongly here (fem.nonnegative)")
-            old = diag.get("under_resolved_reason") or ""
-            diag = {**diag, "under_resolved": True,
-                    "under_resolved_reason": f"{old}; {reason}" if old else reason}
+        diag = diagnosis(q, self._info)
         self._info.update(diag)
         self._resolution = diag
         if self._estimate is not None:
@@ -351,26 +282,13 @@ class FEMSolution(Solution):
             if getattr(self, "time", None) is not None:
                 raise ValueError("error_estimate: a transient density has an estimate only "
                                  "when solved with fem.transient(..., rtol=...)")
-            from .estimate import error_estimate
-            self._estimate = error_estimate(self)
+            self._estimate = self.estimator(self)
         self._apply_estimate()
         return dict(self._estimate)
 
     def _apply_estimate(self) -> None:
-        from .estimate import worst
-        est = self._estimate
-        if est is None:
-            return
-        info = self.info
-        e = worst(est)
-        goal = info.get("rtol") or RESOLUTION_TOL
-        info["error_estimate"] = e if np.isfinite(e) else 1e300     # (JSON: no inf)
-        if e > goal:
-            reason = (f"error estimate {e:.2g} > {goal:g} ({est['richer']} differs; "
-                      f"{est['assumes']})")
-            old = self._resolution.get("under_resolved_reason") or ""
-            info["under_resolved"] = True
-            info["under_resolved_reason"] = f"{old}; {reason}" if old else reason
+        if self._estimate is not None:
+            flag_estimate(self.info, self._resolution, self._estimate)
 
     def moments(self) -> dict[str, float]:
         """E[H], E[x²], E[y²], E[x⁴], E[y⁴] and, with barriers, P_impact.
@@ -448,94 +366,32 @@ class FEMSolution(Solution):
 
     # -- output ------------------------------------------------------------------------
     def save_vtu(self, path: str | Path) -> Path:
-        """Write the mesh with the nodal density ``p`` (vertex values) through meshio.
-
-        Any extension meshio writes works (``.vtu`` for ParaView, ``.xdmf``, ...).
-        The vertices are written as 3-D points (z = 0), which VTU, VTK, STL, ... need:
-        given 2-D points meshio would print a warning on every write, even under
-        ``--quiet``.
-        """
-        import meshio
-        from .._checks import invalid
-        if not isinstance(path, (str, Path)) or not str(path).strip():
-            raise invalid("FEMSolution.save_vtu", "path", "a file path", path)
-        path = Path(path)
-        if path.suffix.lower() not in meshio.extension_to_filetypes:
-            raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
-                          "meshio writes (.vtu, .xdmf, .vtk, ...)", str(path))
-        from skfem.io.meshio import to_meshio
-        vertex = (self._eval(*self.mesh.p) if self.degree > 2
-                  else self.dofs[self.basis.nodal_dofs[0]])
-        out = to_meshio(self.mesh, point_data={"p": vertex})
-        out.points = np.column_stack([out.points, np.zeros(len(out.points))])
-        from ..io import atomic_files
-        try:
-            atomic_files(path, lambda p: meshio.write(     # .msh: gmsh, as skfem writes it
-                str(p), out, **({"file_format": "gmsh"} if Path(p).suffix == ".msh" else {})))
-        except (meshio.ReadError, meshio.WriteError, KeyError) as exc:
-            raise invalid("FEMSolution.save_vtu", "path", "a file name with an extension "
-                          "meshio writes", str(path), str(exc)) from None
-        return path
+        """Write the mesh with the nodal density ``p`` (vertex values) through meshio:
+        ``.vtu``, ``.xdmf``, ... (:func:`fpk_vibro.fem.solution_files.write_mesh_file`)."""
+        return write_mesh_file(self, path)
 
     # -- persistence -----------------------------------------------------------------------
-    def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        meta = {"degree": self.degree, "cell": "quad" if isinstance(self.mesh, skfem.MeshQuad1) else "tri",
-                "residual": self.residual, "tensor": self._tensor is not None,
-                "mass": self.mass,
-                "info": {k: v for k, v in self.info.items()
-                         if isinstance(v, (int, float, str, bool)) or v is None}}
-        arrays = {"mesh_p": self.mesh.p, "mesh_t": self.mesh.t.astype(np.int64), "dofs": self.dofs}
-        if self._tensor is not None:
-            arrays["xnodes"], arrays["ynodes"] = self._tensor
-        return meta, arrays
+    _meta_schema = META_SCHEMA
 
-    _meta_schema = {"degree": Rule.of(Options.declared()["degree"]), "cell": Rule.choice("quad", "tri"),
-                    "residual": Rule.number(0.0, nan=True), "tensor": Rule.FLAG,
-                    "mass": Rule.number(0.0, lo_open=True, none=True).optional(),
-                    "info": Rule.mapping(Rule.SCALAR).optional()}
+    def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return state(self)
 
     @classmethod
     def _array_schema(cls, meta):
         """Vertices (2, n), cells (corners, m) indexing them, DOF values; tensor nodes."""
-        corners = 4 if meta["cell"] == "quad" else 3
-        out = {"mesh_p": Stored((2, "vertices"), min_size=2 * corners),
-               "mesh_t": Stored((corners, "cells"), dtype="int", min_size=corners,
-                                below="vertices"),
-               "dofs": Stored(("dofs",))}
-        if meta["tensor"]:
-            out["xnodes"] = Stored(("nx",), min_size=2, increasing=True)
-            out["ynodes"] = Stored(("ny",), min_size=2, increasing=True)
-        return out
+        return array_schema(meta)
 
     @classmethod
     def _check_state(cls, system, meta, arrays):
         """DOF count of the degree on this mesh (Q2: + edges + cells, P2: + edges)."""
-        t, n = arrays["mesh_t"], arrays["mesh_p"].shape[1]
-        want = n
-        if meta["degree"] > 2 and meta["tensor"]:    # Q3/Q4: (k nx + 1)(k ny + 1)
-            k = meta["degree"]
-            want = ((k * (arrays["xnodes"].size - 1) + 1)
-                    * (k * (arrays["ynodes"].size - 1) + 1))
-        elif meta["degree"] == 2:
-            u, v = t.ravel(), np.roll(t, -1, axis=0).ravel()          # the cells' edges
-            key = np.sort(np.minimum(u, v) * n + np.maximum(u, v))
-            edges = int(key.size > 0) + np.count_nonzero(np.diff(key))
-            want += edges + (t.shape[1] if meta["cell"] == "quad" else 0)
-        if arrays["dofs"].shape != (want,):
-            raise ValueError(f"array 'dofs' has shape {arrays['dofs'].shape}, expected ({want},) "
-                             f"for degree {meta['degree']} on this mesh")
-        if meta["tensor"] and arrays["xnodes"].size * arrays["ynodes"].size != n:
-            raise ValueError(f"arrays 'xnodes' ({arrays['xnodes'].size}) and 'ynodes' "
-                             f"({arrays['ynodes'].size}) do not span the {n} mesh vertices")
+        check_state(meta, arrays)
 
     @classmethod
     def _from_state(cls, system, meta, arrays):
-        kind = skfem.MeshQuad1 if meta["cell"] == "quad" else skfem.MeshTri1
-        mesh = kind(np.asarray(arrays["mesh_p"], float), np.asarray(arrays["mesh_t"]),
-                    sort_t=False)
         tensor = (arrays["xnodes"], arrays["ynodes"]) if meta["tensor"] else None
-        return cls(system, mesh, meta["degree"], arrays["dofs"], residual=meta["residual"],
-                   info=meta.get("info", {}), tensor=tensor, mass=meta.get("mass"))
+        return cls(system, state_mesh(meta, arrays), meta["degree"], arrays["dofs"],
+                   residual=meta["residual"], info=meta.get("info", {}), tensor=tensor,
+                   mass=meta.get("mass"))
 
     def __repr__(self) -> str:
         return (f"FEMSolution(system={self.system!r}, degree={self.degree}, "

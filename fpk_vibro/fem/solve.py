@@ -41,29 +41,23 @@ reused LU costs only its solves, so AMG is chosen by size for one-off solves, an
 for reused step matrices only when the LU would not fit (:func:`factorised`).  On the
 pinned −A (stationary) the iterations grow with size and AMG misses 1e-10 at 10⁶
 DOFs, so the stationary "auto" stays direct (:data:`AMG_MIN_DOFS_STATIONARY`).
-
-Two measured facts shape the direct solver.  (i) The normalisation row uᵀ is
-dense; with it SuperLU's fill explodes (a 17k-DOF Q1 system filled 1.5·10⁷
-entries).  We therefore replace row k by e_kᵀ (pin p_k = 1, sparse) and rescale
-by ∫ p afterwards — the same normalised null vector.  (ii) On a tensor-product
-mesh the geometric nested-dissection ordering of the DOF grid
-(:func:`grid_nested_dissection`) with SuperLU's diagonal pivoting
-(``diag_pivot_thresh=0.01``) fills ~1.5–2× less than COLAMD and is ~1.8× faster than
-MMD on A + Aᵀ for Q1.  For Q2 and general meshes MMD_AT_PLUS_A with the same
-diagonal pivoting is used (4–5× less fill than the grid ND for Q2, measured).  The
-backward error is checked and, if above 1e-10, improved by GMRES preconditioned
-with the LU factors.
+The direct solver and its orderings: :mod:`fpk_vibro.fem.direct`; AMG:
+:mod:`fpk_vibro.fem.amg`.
 """
 from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from .amg import (SolverNotConverged, amg_hierarchy, is_generator_pattern, is_m_matrix_pattern,
+                  krylov, solve_amg)
+from .direct import (grid_nested_dissection, is_p1, nd_lu, pinned_system, relative_residual,
+                     solve_direct)
 
 __all__ = [
     "AMG_MIN_DOFS",
@@ -99,20 +93,6 @@ AMG_TOL = 1e-10
 AMG_TOL_STEP = 1e-10
 
 
-class SolverNotConverged(RuntimeError):
-    """An iterative solve missed its tolerance; no density is returned.
-
-    Attributes: ``solver``, ``iterations``, ``residual`` (true relative residual),
-    ``tol``."""
-
-    def __init__(self, solver: str, iterations: int, residual: float, tol: float,
-                 detail: str = "") -> None:
-        self.solver, self.iterations, self.residual, self.tol = solver, iterations, residual, tol
-        msg = (f"solver={solver!r} did not converge: relative residual {residual:.1e} > "
-               f"tolerance {tol:.0e} after {iterations} iterations")
-        super().__init__(msg + (f" ({detail})" if detail else ""))
-
-
 @dataclass
 class SolveInfo:
     """What the solve did: solver used, seconds, relative residual, iterations."""
@@ -121,67 +101,6 @@ class SolveInfo:
     residual: float
     iterations: int = 0
     extra: dict = field(default_factory=dict)
-
-
-def pinned_system(L: sp.spmatrix, unit: np.ndarray, pin: int | None = None
-                  ) -> tuple[sp.csr_matrix, np.ndarray, int]:
-    """(A, b, k): L with row k replaced by e_kᵀ, b = e_k (then p ← p / uᵀp)."""
-    L = sp.csr_matrix(L)
-    n = L.shape[0]
-    if pin is None:
-        pin = int(np.argmax(unit))
-    keep = np.ones(n)
-    keep[pin] = 0.0
-    A = sp.diags(keep) @ L + sp.csr_matrix(([1.0], ([pin], [pin])), shape=(n, n))
-    A = sp.csr_matrix(A)
-    A.eliminate_zeros()
-    b = np.zeros(n)
-    b[pin] = 1.0
-    return A, b, pin
-
-
-def relative_residual(A: sp.spmatrix, p: np.ndarray, b: np.ndarray) -> float:
-    """‖A p − b‖∞ / (‖A‖∞ ‖p‖∞ + ‖b‖∞): the normwise backward error."""
-    r = A @ p - b
-    normA = float(abs(A).sum(axis=1).max())
-    return float(np.max(np.abs(r)) / (normA * np.max(np.abs(p)) + np.max(np.abs(b))))
-
-
-def grid_nested_dissection(xrank: np.ndarray, yrank: np.ndarray, leaf: int = 6
-                           ) -> np.ndarray:
-    """Nested-dissection ordering of a tensor DOF grid (DOF (i, j) ↦ i·ny + j).
-
-    ``xrank[i]``, ``yrank[j]`` are the spatial ranks of the 1-D DOFs (P2 numbers
-    vertices before midpoints).  The grid is cut recursively across its longer
-    side along a line of *vertex* DOFs (even rank for P2, any for P1: detected as
-    separators that decouple the halves), separators numbered last.
-    """
-    nx, ny = len(xrank), len(yrank)
-    xs, ys = np.argsort(xrank), np.argsort(yrank)      # spatial position -> dof
-    step = 1 if nx < 2 or (nx - 1) % 2 or is_p1(xrank) else 2
-    out: list[np.ndarray] = []
-    stack = [(0, nx, 0, ny, False)]
-    while stack:
-        i0, i1, j0, j1, emit = stack.pop()
-        if emit:                           # separator block marker
-            out.append((xs[i0:i1, None] * ny + ys[None, j0:j1]).ravel())
-            continue
-        ni, nj = i1 - i0, j1 - j0
-        if ni <= leaf * step and nj <= leaf * step:
-            out.append((xs[i0:i1, None] * ny + ys[None, j0:j1]).ravel())
-            continue
-        if ni >= nj:
-            m = i0 + (ni // 2) // step * step
-            # order: left, right, then separator (stack is LIFO)
-            stack += [(m, m + 1, j0, j1, True), (m + 1, i1, j0, j1, False), (i0, m, j0, j1, False)]
-        else:
-            m = j0 + (nj // 2) // step * step
-            stack += [(i0, i1, m, m + 1, True), (i0, i1, m + 1, j1, False), (i0, i1, j0, m, False)]
-    return np.concatenate(out)
-
-
-def is_p1(rank: np.ndarray) -> bool:
-    return bool(np.all(rank == np.arange(len(rank))))
 
 
 def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
@@ -234,128 +153,26 @@ def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
     extra: dict = {}
     if solver == "direct":
         A, b, pin = pinned_system(L, unit, pin)
-        p, it, extra["ordering"] = _solve_direct(A, b, grid, tol)
+        p, it, extra["ordering"] = solve_direct(A, b, grid, tol)
     else:
         # AMG wants positive diagonals: pin −L (same null vector, same e_k row)
         A, b, pin = pinned_system(-sp.csr_matrix(L), unit, pin)
         kind = "sa" if solver == "amg-sa" else "air"
         try:
-            p, it = _solve_amg(A, b, kind=kind, tol=max(tol, AMG_TOL), maxiter=maxiter)
+            p, it = solve_amg(A, b, kind=kind, tol=max(tol, AMG_TOL), maxiter=maxiter)
             extra["ordering"] = f"amg-{kind}"
         except SolverNotConverged as exc:
             if requested != "auto":
                 raise
             extra["fallback"] = str(exc)
             B, b, pin = pinned_system(L, unit, pin)
-            p, it, extra["ordering"] = _solve_direct(B, b, grid, tol)
+            p, it, extra["ordering"] = solve_direct(B, b, grid, tol)
             solver = f"direct (fallback: {exc.solver} did not converge)"
     extra["pin"] = pin
     res = relative_residual(A, p, b)
     p = p / float(unit @ p)
     dt = time.perf_counter() - t0
     return p, SolveInfo(solver, dt, res, it, extra)
-
-
-def nd_lu(K: sp.spmatrix, perm: np.ndarray):
-    """The solve x = K⁻¹ b by SuperLU on K permuted symmetrically by ``perm`` (a
-    nested-dissection order, :func:`grid_nested_dissection`), no further column
-    ordering, diagonal pivots preferred (``diag_pivot_thresh=0.01``)."""
-    lu = spla.splu(K[perm][:, perm].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.01,
-                   options={"SymmetricMode": True})
-
-    def solve(v: np.ndarray) -> np.ndarray:
-        out = np.empty_like(v)
-        out[perm] = lu.solve(v[perm])
-        return out
-    return solve
-
-
-def _solve_direct(A: sp.csr_matrix, b: np.ndarray, grid, tol: float):
-    if grid is not None and not all(is_p1(r) for r in grid):
-        grid = None                      # measured: MMD beats this ND 4-5x for Q2
-    if grid is not None:
-        apply = nd_lu(A, grid_nested_dissection(*grid))
-        x = apply(b)
-        ordering = "nested-dissection"
-    else:
-        lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01,
-                       options={"SymmetricMode": True})
-        x = lu.solve(b)
-        ordering = "MMD_AT_PLUS_A"
-        apply = lu.solve
-    it = 0
-    if relative_residual(A, x, b) > 1e-10:         # static pivoting lost accuracy
-        M = spla.LinearOperator(A.shape, matvec=apply)
-        count = [0]
-        x, _ = spla.gmres(A, b, x0=x, M=M, rtol=tol, restart=20, maxiter=20,
-                          callback=lambda _: count.__setitem__(0, count[0] + 1),
-                          callback_type="pr_norm")
-        it = count[0]
-    return x, it, ordering
-
-
-def _amg_hierarchy(A: sp.csr_matrix, kind: str):
-    import pyamg
-    if kind == "air":
-        return pyamg.air_solver(A, max_coarse=500)
-    return pyamg.smoothed_aggregation_solver(A, symmetry="nonsymmetric", max_coarse=500)
-
-
-def _krylov(A, b, M, *, tol: float, maxiter: int, x0=None, solver: str = "amg-air"
-            ) -> tuple[np.ndarray, int]:
-    """GMRES(50) preconditioned by ``M``, at most ``maxiter`` inner iterations; the
-    true relative residual ‖Ax−b‖₂/‖b‖₂ is checked afterwards and
-    :class:`SolverNotConverged` raised if it exceeds ``10·tol`` or is not finite."""
-    count = [0]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        # SciPy counts restart cycles in maxiter: ``maxiter`` here is inner iterations
-        x, _info = spla.gmres(A, b, x0=x0, M=M, rtol=tol, restart=min(50, maxiter),
-                             maxiter=max(1, -(-maxiter // 50)),
-                             callback=lambda _: count.__setitem__(0, count[0] + 1),
-                             callback_type="pr_norm")
-    nb = float(np.linalg.norm(b))
-    res = float(np.linalg.norm(A @ x - b) / nb) if nb > 0 else float(np.linalg.norm(A @ x))
-    # judged by the true residual only: GMRES's own flag (info) also reports
-    # stagnation at round-off level, measured at 5e-10 on a converged 66k system
-    if not np.isfinite(res) or res > 10 * tol:
-        raise SolverNotConverged(solver, count[0], res, tol)
-    return x, count[0]
-
-
-def _solve_amg(A: sp.csr_matrix, b: np.ndarray, *, kind: str, tol: float,
-               maxiter: int) -> tuple[np.ndarray, int]:
-    """AMG-preconditioned GMRES; raises :class:`SolverNotConverged`, never returns an
-    unconverged vector (measured on the Galerkin L: residual 1e-1 … 1e2)."""
-    try:
-        ml = _amg_hierarchy(A, kind)
-    except (ValueError, ArithmeticError, FloatingPointError) as exc:   # NaN in setup
-        raise SolverNotConverged(f"amg-{kind}", 0, float("nan"), tol,
-                                 f"setup failed: {exc}") from exc
-    return _krylov(A, b, ml.aspreconditioner(cycle="V"), tol=tol, maxiter=maxiter,
-                   solver=f"amg-{kind}")
-
-
-def is_generator_pattern(L: sp.spmatrix, rtol: float = 1e-12) -> bool:
-    """True if every off-diagonal of L is ≥ −rtol·max|L| (the positive generator of
-    :mod:`fpk_vibro.fem.positivity`; also M − dt·L is then an M-matrix for a lumped,
-    diagonal M).  The Galerkin generator fails this (negative couplings)."""
-    L = sp.coo_matrix(L)
-    off = L.row != L.col
-    if not off.any():
-        return True
-    scale = float(np.max(np.abs(L.data))) if L.nnz else 1.0
-    return bool(L.data[off].min() >= -rtol * scale)
-
-
-def is_m_matrix_pattern(K: sp.spmatrix, rtol: float = 1e-12) -> bool:
-    """True if K has positive diagonal and off-diagonals ≤ rtol·max|K| (Z-matrix
-    sign pattern: M/dt − A for the positive generator A and lumped M)."""
-    K = sp.coo_matrix(K)
-    off = K.row != K.col
-    scale = float(np.max(np.abs(K.data))) if K.nnz else 1.0
-    diag = K.diagonal()
-    return bool(np.all(diag > 0) and (not off.any() or K.data[off].max() <= rtol * scale))
 
 
 def lu_bytes(n: int) -> float:
@@ -392,7 +209,7 @@ class Factorised:
         self.kind = "lu" if solver == "direct" else "amg"
         if self.kind == "amg":
             try:
-                self._ml = _amg_hierarchy(self.K, "sa" if solver == "amg-sa" else "air")
+                self._ml = amg_hierarchy(self.K, "sa" if solver == "amg-sa" else "air")
             except (ValueError, ArithmeticError, FloatingPointError) as exc:
                 self._fallback(SolverNotConverged(solver, 0, float("nan"), tol,
                                                   f"setup failed: {exc}"))
@@ -417,7 +234,7 @@ class Factorised:
     def __call__(self, b: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
         if self.kind == "amg":
             try:
-                x, it = _krylov(self.K, b, self._ml.aspreconditioner(cycle="V"), tol=self.tol,
+                x, it = krylov(self.K, b, self._ml.aspreconditioner(cycle="V"), tol=self.tol,
                                 maxiter=self.maxiter, x0=x0, solver="amg-air")
                 self.info["iterations"] = it
                 return x

@@ -193,7 +193,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     opts, _ = Options.prepare(system, "transient", locals(), initial=gaussian, times=t_out)
     if opts.rtol is not None:
         from .transient_accuracy import adaptive_transient
-        return adaptive_transient(system, initial, t_out, opts.rtol, opts, progress)
+        return adaptive_transient(system, initial, t_out, opts.rtol, opts, progress,
+                                  march=transient)
     if opts.discretisation is not None:
         positivity = opts.discretisation.positivity
     if positivity == "auto":                 # in a transient "auto" is Galerkin

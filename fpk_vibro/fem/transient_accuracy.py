@@ -37,9 +37,12 @@ TIME_SHARE = 0.25
 
 
 def adaptive_transient(system: VibroImpactSystem, initial: Any, times: Any, rtol: float,
-                       opts: Any, progress: bool | None = None) -> list:
-    """The solve of ``fem.transient(system, ..., rtol=...)`` (module docstring)."""
-    from . import transient
+                       opts: Any, progress: bool | None = None, *, march: Any) -> list:
+    """The solve of ``fem.transient(system, ..., rtol=...)`` (module docstring).
+
+    ``march`` is :func:`fpk_vibro.fem.transient.transient` (given by it: this module
+    lies below it), which each level calls with its mesh, degree and BDF2 tolerance.
+    """
     from .options import WALL_GRADING
     where = "fem.transient"
     t0 = time.perf_counter()
@@ -61,9 +64,9 @@ def adaptive_transient(system: VibroImpactSystem, initial: Any, times: Any, rtol
                                  f"{o.degree}, nx = {o.nx}) would take ~{guess:.0f} s; give "
                                  "a larger rtol, or nx and degree", where=where, name="rtol")
         t1 = time.perf_counter()
-        sols = transient(system, initial=initial, times=times, degree=o.degree, nx=o.nx,
-                         ny=o.ny, y_max=o.y_max, wall_grading=o.wall_grading, tol=tol_step,
-                         progress=progress)
+        sols = march(system, initial=initial, times=times, degree=o.degree, nx=o.nx,
+                     ny=o.ny, y_max=o.y_max, wall_grading=o.wall_grading, tol=tol_step,
+                     progress=progress)
         last[:] = [time.perf_counter() - t1, o.ndofs(system)]
         return sols
 

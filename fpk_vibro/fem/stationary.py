@@ -1,0 +1,121 @@
+"""The stationary density of the 2-D FPK: :func:`stationary`, the face of the FE method."""
+from __future__ import annotations
+
+from ..model import VibroImpactSystem
+from .discretisation import build
+from .estimate import adaptive
+from .options import DEFAULT_RTOL, Options
+from .solution import FEMSolution
+
+__all__ = ["stationary"]
+
+
+def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
+               ny: int | None = None, y_max: float | None = None, degree: int = 1,
+               solver: str = "auto", element: str = "quad", grading: float = 0.0,
+               wall_grading: float | None = None, positivity: bool | str = "auto",
+               assembly: str = "auto", rtol: float | None = None) -> FEMSolution:
+    """Stationary density of the 2-D FPK with impact coupling.
+
+    Solves L p = 0, ∫ p = 1 where L is the conservative Galerkin generator
+    (``assemble``: ∫ J·∇q − B₊ − B₋; docs/theory.md, §Impact coupling) on a mesh
+    of the strip.  Given none of ``mesh``, ``nx``, ``ny``, ``positivity`` (and
+    ``degree`` at its default), the mesh and degree are chosen for ``rtol`` = 1e-4
+    (best effort) and the density is non-negative; ``sol.error_estimate()`` says
+    how accurate it is.
+
+    Parameters
+    ----------
+    system : VibroImpactSystem
+    mesh : skfem.Mesh or path, optional
+        A mesh of the strip (walls at its x-extremes, symmetric in y, y = 0 a mesh
+        line), e.g. from ``meshes/``.  Default: a structured mesh.
+    nx, ny : int, optional
+        Cells across x and y (``ny`` even).  Default ``nx`` = 128 (Q1) / 48 (Q2),
+        ``ny`` the even number giving cells with h_y ≈ 1.5 h_x, at most 4 nx.
+    y_max : float, optional
+        Truncation |y| < y_max; default from the energy tail (mass beyond < 1e-8,
+        :func:`fpk_vibro.fem.mesh.domain`, :mod:`fpk_vibro.scales`).
+    degree : {1, 2, 3, 4}
+        Default 1, used with a mesh, nx or ny (otherwise rtol chooses 2–4).  Q1/P1
+        or Q2/P2 Lagrange elements; 3, 4: Q3/Q4 on the structured quad mesh
+        with tensor assembly only (:mod:`fpk_vibro.fem.highorder`; default nx 32,
+        24).  Measured L1 orders on the exact case: Q3 4, Q4 5 falling to 4
+        (docs/measurements.md, §Degrees 3 and 4).
+    solver : {"auto", "direct", "amg", "amg-sa"}
+        See :mod:`fpk_vibro.fem.solve`.
+    element : {"quad", "tri"}
+        Structured quadrilaterals or triangles (ignored with ``mesh``).
+    grading : float
+        ≥ 0: cluster the y-nodes towards y = 0 (sinh map).
+    wall_grading : float, optional
+        ≥ 1: cluster the x-nodes toward each wall with r < 1
+        (:func:`fpk_vibro.fem.mesh.wall_nodes`); default 2 in the rtol solve, else
+        uniform.
+    positivity : bool or {"auto", "quick", "van-albada", "first-order", "upwind", "afc"}
+        :mod:`fpk_vibro.fem.positivity` (the first three) and
+        :mod:`fpk_vibro.fem.afc`, degree 1 only (nodal Q1 density).
+        ``True``/``"quick"``: the positive tensor-grid generator (Scharfetter–
+        Gummel for the dissipative y part, upwind fluxes for the Hamiltonian
+        transport, conservative lumped walls) with QUICK face values whose flux
+        factors are clipped to [0, 4], solved by Picard iteration (Anderson-
+        accelerated); every returned density is the null vector of a generator,
+        so p ≥ 0 and mass 1.  Measured L1 order ≈ 2.1–2.3 on the exact case
+        (module notes).  ``"van-albada"``: the same with TVD van Albada face
+        values (order ≈ 2.4 but a larger constant).  ``"first-order"``: the
+        generator unlimited (provably ≥ 0, first order, one linear solve).  These
+        need the structured quad mesh with tensor assembly.  ``"upwind"``:
+        algebraic discrete upwinding of the Galerkin matrix (any mesh; ≥ 0 but
+        strongly diffusive).  ``"afc"``: upwinding plus Kuzmin's flux correction
+        by defect correction (does not converge on the hard cases; a
+        RuntimeWarning says so).  ``False``: plain Galerkin (order 2 on smooth
+        cases, negative next to (±Δ, 0) on hard cases).  Default ``"auto"``:
+        Galerkin, with any negative nodal value removed by a local mass-keeping
+        redistribution (:mod:`fpk_vibro.fem.nonnegative`); the L1 and moment
+        changes it made are in ``sol.info["correction"]`` and in the error
+        estimate, and every evaluation (``pdf_joint``, ``pdf_x``, ``pdf_y``,
+        ``pdf_energy``) is ≥ 0.  ``sol.info["discretisation"]`` names what ran and
+        ``sol.info["discretisation_reason"]`` why.
+    assembly : {"auto", "tensor", "general"}
+        Kronecker-product assembly (structured quads) or general skfem assembly.
+    rtol : float, optional
+        Accuracy goal: Galerkin degree 2, 3, 4 and then nx doubled until the
+        estimated relative errors of E[H], E[x²], E[y²], P_impact
+        (``sol.error_estimate()``, which also gives the L1 error of the density)
+        are below ``rtol`` (:mod:`fpk_vibro.fem.estimate`); not with mesh, nx,
+        ny, degree or positivity.  Refused in one line naming ``rtol`` when the
+        budget, 30 s in all or nx = 4096 would be passed first.  Default: 1e-4
+        when none of mesh, nx, ny, degree, positivity is given, as a best effort
+        (10 s at most; where it is not reached the last estimated level is
+        returned with ``info["under_resolved"]`` and ``info["rtol_not_reached"]``);
+        otherwise no adaptation, and ``sol.error_estimate()`` is still available
+        (one richer solve, on first call).
+
+    Returns
+    -------
+    FEMSolution
+
+    Raises
+    ------
+    ValueError
+        Naming the offending parameter, before any work; also when the estimated
+        memory or run time is beyond the machine (:mod:`fpk_vibro.budget`).
+
+    Notes
+    -----
+    Every option is declared once in :class:`fpk_vibro.fem.Options`.
+    """
+    chosen = (mesh is None and nx is None and ny is None and degree == 1
+              and positivity == "auto" and element == "quad" and assembly != "general")
+    best_effort = rtol is None and chosen
+    if best_effort:
+        rtol = DEFAULT_RTOL
+    opts, _ = Options.prepare(system, "stationary", locals())
+    if opts.rtol is not None:
+        sol = adaptive(system, opts, opts.rtol, best_effort=best_effort)
+    else:
+        sol = build(system, opts).stationary(opts.solver)
+        sol._options = opts
+    # the stationary power balance (noise in = damping + impacts): a check of p_h
+    sol.info["power_balance_residual"] = sol.power_balance()["residual"]
+    return sol
