@@ -134,7 +134,7 @@ def test_wrong_answers_meet_their_estimate(s, kw):
 
 def test_rtol_is_declared_once_and_checked():
     assert "rtol" in fem.Options.for_mode("stationary")
-    assert "rtol" not in fem.Options.for_mode("transient")
+    assert "rtol" in fem.Options.for_mode("transient")       # space and time
     for kw in ({"nx": 16}, {"degree": 3}, {"positivity": "quick"}):
         with pytest.raises(InputError) as exc:
             fem.stationary(PAPER, rtol=1e-3, **kw)
