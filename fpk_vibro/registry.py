@@ -16,9 +16,11 @@ model ``features`` it handles (:data:`FEATURES`), whether its results are sample
   ``start=``, ``times=``; each returns a :class:`fpk_vibro.solution.Solution` (a list
   of them for a transient);
 - ``options()`` → its :class:`fpk_vibro.options.Options` subclass (the declared
-  numerical keywords, budget and scene table), or None for a method without options;
+  numerical keywords, budget and scene table: the method's table in a scene); leave
+  ``options`` None for a method without numerical options;
 - ``check(system, mode, quantities)`` (optional) → a reason it cannot, or None, for
-  rules beyond the features (e.g. the energy density of a double well).
+  rules beyond the features (or it raises the InputError itself, e.g. fem's energy
+  density of a double well, naming ``quantities``).
 
 :meth:`Method.supports` raises one :class:`~fpk_vibro._checks.InputError` naming the
 feature (or mode, or quantity) the method lacks and the registered methods that have
@@ -88,13 +90,17 @@ class Method:
     quantities: tuple[str, ...]
     features: tuple[str, ...]
     solver: Callable[[str], Callable[..., Any]] = field(repr=False)
-    options: Callable[[], Any] = field(default=lambda: None, repr=False)
+    options: Callable[[], Any] | None = field(default=None, repr=False)
     sampled: bool = False
     solution_kinds: tuple[str, ...] = ()
     check: Callable[[VibroImpactSystem, str, tuple], str | None] | None = field(
         default=None, repr=False)
     study: str = ""
     benchmark: str = ""
+
+    def options_class(self) -> Any:
+        """The Options class (imports the method), or None."""
+        return None if self.options is None else self.options()
 
     def supports(self, system: VibroImpactSystem, mode: str = "stationary",
                  quantities: tuple[str, ...] | list[str] = ()) -> None:
@@ -170,8 +176,9 @@ def _fem_options():
 
 def _fem_check(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
     if "energy" in quantities and not (system.a > 0 or (system.a == 0 and system.b > 0)):
-        return (f"the energy density p(H) needs a > 0, or a = 0 < b (one orbit per energy "
-                f"level); got a={system.a}, b={system.b}: remove 'energy' or fem")
+        raise InputError(f"fem: the energy density p(H) needs a > 0, or a = 0 < b (one orbit "
+                         f"per energy level); got a={system.a}, b={system.b}: remove "
+                         "'energy' or fem", where="fem", name="quantities")
     return None
 
 

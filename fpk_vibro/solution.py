@@ -84,6 +84,16 @@ class Solution(abc.ABC):
     _registry: ClassVar[dict[str, type["Solution"]]] = {}
     system: VibroImpactSystem
 
+    @property
+    def partial(self) -> bool:
+        """True when a signal cut the run short: what it holds was finished, but not
+        all that was asked (every method; a transient's list says the same)."""
+        return bool(self.__dict__.get("_partial", False))
+
+    @partial.setter
+    def partial(self, value: bool) -> None:
+        self.__dict__["_partial"] = bool(value)
+
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if cls.kind:
@@ -286,6 +296,17 @@ class Solution(abc.ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(system={self.system!r})"
+
+
+class TransientResult(list):
+    """The densities of a transient at its output times, in order (every method).
+
+    ``partial`` is True when a signal stopped the run: the list then holds the times
+    reached, ``times_requested`` all of them.
+    """
+
+    partial: bool = False
+    times_requested: tuple = ()
 
 
 def _package_version() -> str:

@@ -52,3 +52,57 @@ def test_capability_table_is_the_generated_one():
     assert m, "docs/guide/methods.md has lost its generated table"
     assert m.group(1) == capability_table(), \
         "docs/guide/methods.md is stale: regenerate with `fpk-vibro methods`"
+
+
+TOY_SCENE = """
+[system]
+a = 1.0
+b = 0.2
+c = 0.025
+D1 = 0.01
+
+[barriers]
+delta = 0.6
+r = 1.0
+
+[study]
+name = "toy"
+methods = ["toy", "exact"]
+quantities = ["energy", "x", "y", "joint", "moments"]
+
+[output]
+formats = ["json", "npz", "png"]
+"""
+
+
+def test_a_toy_method_is_picked_up_everywhere_with_no_edit_elsewhere(tmp_path):
+    """A method registered in a few lines (here: the Gibbs density under another name)
+    is accepted by the scene parser, checked by check_scene, run by the runner,
+    written to results.json and drawn in the figures; it refuses what it lacks."""
+    import json
+
+    from fpk_vibro.app.runner import run_scene
+    from fpk_vibro.app.scenes import SceneError, check_scene, load_scene
+    from fpk_vibro.exact import gibbs
+    from fpk_vibro.registry import register, unregister
+
+    register(Method("toy", "the Gibbs density, as a toy", ("stationary",),
+                    ("energy", "x", "y", "joint", "moments"), ("walls",),
+                    solver=lambda mode: lambda system, **kw: gibbs(system)))
+    try:
+        path = tmp_path / "toy.toml"
+        path.write_text(TOY_SCENE)
+        scene = load_scene(path)
+        assert "toy" in check_scene(scene)[0]["costs"]
+        doc = run_scene(scene, out=tmp_path / "out", log=lambda *_: None)
+        written = json.loads((tmp_path / "out" / "results.json").read_text())
+        for d in (doc, written):
+            rec = d["points"][0]["methods"]
+            assert rec["toy"]["moments"] == rec["exact"]["moments"]
+        assert (tmp_path / "out" / "p0_energy.png").stat().st_size > 0
+        path.write_text(TOY_SCENE.replace("r = 1.0", "r = 0.9"))
+        with pytest.raises(SceneError, match="toy: does not handle inelastic walls"):
+            check_scene(load_scene(path))
+    finally:
+        unregister("toy")
+    assert "toy" not in methods()

@@ -5,6 +5,7 @@ Commands
 run SCENE   run a scene (TOML): results.json, densities.npz, figures
 check SCENE every check of run, and the cost per point and method, without running
 keys        the table of scene keys (Markdown), generated from the declarations
+methods     what each registered method handles (Markdown; docs/guide/methods.md)
 show DIR    print the summary table of a results directory
 study KIND  ``convergence`` (error vs wall time) or ``averaging`` (where it holds)
 paper       the paper's case end to end (Fig. 3 analogue): p(H) for r = 0.98, 0.92
@@ -15,7 +16,6 @@ bench NAME  benchmarks: ``averaging``, ``montecarlo``, ``fem`` (what accuracy co
 from __future__ import annotations
 
 import argparse
-import importlib
 import signal
 import sys
 import time
@@ -23,13 +23,35 @@ from pathlib import Path
 
 from .._version import __version__
 
-_BENCHMARKS = {
-    "averaging": "fpk_vibro.app.benchmarks",
-    "montecarlo": "fpk_vibro.montecarlo.benchmark",
-    "fem": "fpk_vibro.fem.benchmark_rtol",
-    "fem-scale": "fpk_vibro.fem.benchmark",
-    "fem-transient": "fpk_vibro.fem.benchmark_transient",
-}
+def _bench_averaging():
+    from . import benchmarks
+    return benchmarks.main
+
+
+def _bench_montecarlo():
+    from ..montecarlo import benchmark
+    return benchmark.main
+
+
+def _bench_fem():
+    from ..fem import benchmark_rtol
+    return benchmark_rtol.main
+
+
+def _bench_fem_scale():
+    from ..fem import benchmark
+    return benchmark.main
+
+
+def _bench_fem_transient():
+    from ..fem import benchmark_transient
+    return benchmark_transient.main
+
+
+#: The benchmarks by name: each loads its main(argv) only when asked for.
+_BENCHMARKS = {"averaging": _bench_averaging, "montecarlo": _bench_montecarlo,
+               "fem": _bench_fem, "fem-scale": _bench_fem_scale,
+               "fem-transient": _bench_fem_transient}
 
 
 def _print_moments(label: str, moments: dict[str, float], se: dict[str, float] | None = None) -> None:
@@ -190,9 +212,15 @@ def cmd_keys(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_methods(args: argparse.Namespace) -> int:
+    """The capability table of the registered methods (docs/guide/methods.md's)."""
+    from ..registry import capability_table
+    print(capability_table(), end="")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
-    module = importlib.import_module(_BENCHMARKS[args.name])
-    return int(module.main(args.rest) or 0)
+    return int(_BENCHMARKS[args.name]()(args.rest) or 0)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -253,6 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
     pt.set_defaults(func=cmd_study)
     pk = sub.add_parser("keys", help="the table of scene keys (Markdown)")
     pk.set_defaults(func=cmd_keys)
+    pm = sub.add_parser("methods", help="what each registered method handles (Markdown)")
+    pm.set_defaults(func=cmd_methods)
     pp = sub.add_parser("paper", help="the paper's case end to end (Fig. 3 analogue)")
     pp.add_argument("--out", default="results", help="output directory (default: results)")
     pp.set_defaults(func=cmd_paper)

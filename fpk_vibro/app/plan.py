@@ -8,25 +8,34 @@ call it, so a scene that passes the check passes the solver's own checks.
 """
 from __future__ import annotations
 
-from importlib import import_module
 from typing import Any
 
-from .._checks import InputError
 from ..budget import Cost
 from ..model import VibroImpactSystem
+from ..montecarlo.solution import ALL_QUANTITIES
+from ..registry import methods
 
 __all__ = ["solver_kwargs", "plan", "resolved_options", "SOLVER_QUANTITIES"]
 
-#: The histograms a Monte Carlo run can accumulate.
-SOLVER_QUANTITIES = ("energy", "x", "y", "joint", "impacts")
+#: The histograms a sampled run can accumulate (declared by the Monte Carlo solution).
+SOLVER_QUANTITIES = ALL_QUANTITIES
+#: The quantities a method is asked to have densities for (the others are derived, or
+#: skipped for a method without that mode: first passage).
+DENSITIES = ("energy", "x", "y", "joint")
+
+
+def _options(method: str):
+    """The method's Options class, or None (a method without numerical options)."""
+    return methods()[method].options_class()
 
 
 def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> dict[str, Any]:
     """The keywords of ``method``'s solver for ``scene`` (besides system, initial, times)."""
-    if method == "exact":
+    Options = _options(method)
+    if Options is None:
         return {}
     kw = dict(scene.numerics.get(method, {}))
-    declared = import_module(f"fpk_vibro.{method}.options").Options.declared()
+    declared = Options.declared()
     if "quantities" in declared:
         kw["quantities"] = tuple(q for q in scene.quantities if q in SOLVER_QUANTITIES)
     if "progress" in declared:
@@ -36,10 +45,10 @@ def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> 
 
 def resolved_options(scene: Any, method: str) -> dict[str, Any]:
     """Every option of ``method`` as the run uses it (defaults filled in), for the record."""
-    if method == "exact":
+    Options = _options(method)
+    if Options is None:
         return {}
     import dataclasses
-    Options = import_module(f"fpk_vibro.{method}.options").Options
     opts = Options.from_call(scene.mode, solver_kwargs(scene, method))
     return {k: v for k, v in dataclasses.asdict(opts).items()
             if scene.mode in Options.declared()[k].modes and k != "progress"}
@@ -53,21 +62,15 @@ def plan(scene: Any, method: str, system: VibroImpactSystem) -> Cost:
     fpk_vibro._checks.InputError
         As the solver would, before any work.
     """
-    if method == "exact":
-        from ..exact import require_gibbs
-        require_gibbs(system)
+    methods()[method].supports(system, scene.mode,
+                               [q for q in scene.quantities if q in DENSITIES])
+    Options = _options(method)
+    if Options is None:                    # a closed form: nothing to size
         return Cost(50e6, 1.0, "quadratures", 0.05)
-    Options = import_module(f"fpk_vibro.{method}.options").Options
     init = None
     if scene.transient:
         from ..initial import parse_initial
         init = parse_initial(scene.initial, system)
     _, cost = Options.prepare(system, scene.mode, solver_kwargs(scene, method), initial=init,
                               times=scene.times, probe=True)
-    if method == "fem" and "energy" in scene.quantities:
-        from ..fem.solution import FEMSolution
-        if not FEMSolution.has_energy_density(system):
-            raise InputError(f"fem: the energy density p(H) needs a > 0, or a = 0 < b (one "
-                             f"orbit per energy level); got a={system.a}, b={system.b}: "
-                             "remove 'energy' or fem", where="fem", name="quantities")
     return cost

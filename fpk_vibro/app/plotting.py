@@ -17,9 +17,16 @@ from ..solution import Solution
 
 __all__ = ["plot_energy_pdfs", "plot_density", "plot_joint", "METHOD_NAMES"]
 
-#: How figures name the methods.
+#: How figures name the built-in methods (another registered method: by its name).
 METHOD_NAMES = {"exact": "exact (Gibbs)", "averaging": "stochastic averaging",
                 "fem": "finite elements", "montecarlo": "Monte Carlo"}
+
+
+def _sampled(method: str) -> bool:
+    """True for a method whose results are samples (drawn as histograms ± SE)."""
+    from ..registry import methods
+    m = methods().get(method)
+    return bool(m is not None and m.sampled)
 
 
 class _Figures:
@@ -157,7 +164,7 @@ def plot_density(solutions: dict, quantity: str, grid: np.ndarray, *, ax=None,
     pdf = "pdf_" + quantity
     for method, sol in solutions.items():
         name = METHOD_NAMES.get(method, method)
-        if method == "montecarlo":
+        if _sampled(method):
             edges, dens, se = sol.histogram(quantity)
             mid = 0.5 * (edges[1:] + edges[:-1])
             keep = (mid >= grid[0]) & (mid <= grid[-1]) & (dens > 0 if log else True)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .plotting import _STYLE, METHOD_NAMES, _Figures, _pyplot, _save
+from .plotting import _STYLE, METHOD_NAMES, _Figures, _pyplot, _sampled, _save
 
 __all__ = ["impact_speeds", "reliability", "moment_history", "sweep_overlay", "sweep_moments"]
 
@@ -38,13 +38,13 @@ def impact_speeds(solutions: dict, path, *, title: str = "") -> Path:
                     continue
                 mid = 0.5 * (edges[1:] + edges[:-1])
                 ax.errorbar(mid, dens, yerr=se, fmt="o", ms=3, mfc="none", color="C2",
-                            capsize=1.5, lw=0.8, label=METHOD_NAMES[method] + " (±1 SE)")
+                            capsize=1.5, lw=0.8, label=METHOD_NAMES.get(method, method) + " (±1 SE)")
                 top = max(top, float(edges[-1]))
         u = np.linspace(0.0, top or 3.0 * max(
             v.impacts()[side]["mean_speed"] for m, v in solutions.items()
-            if m != "montecarlo"), 400)
+            if not _sampled(m)), 400)
         for method, sol in solutions.items():
-            if method == "montecarlo":
+            if _sampled(method):
                 continue
             try:
                 ax.plot(u, sol.impact_speed_pdf(side, u), label=METHOD_NAMES.get(method, method),
@@ -90,7 +90,7 @@ def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") ->
     for method, e in entries.items():
         t = np.asarray(e["times"], dtype=float)
         v = np.array([a["moments"][key] for a in e["at"]])
-        if method == "montecarlo":
+        if _sampled(method):
             se = np.array([a["moments_se"][key] for a in e["at"]])
             ax.errorbar(t, v, yerr=se, fmt="o", ms=4, mfc="none", color="C2", capsize=2,
                         label="Monte Carlo (±1 SE)")
@@ -120,7 +120,7 @@ def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str
             key = f"p{point['index']}.{method}.{quantity}"
             if f"{key}.grid" not in arrays:
                 continue
-            if method == "montecarlo":
+            if _sampled(method):
                 e, h, se = arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"]
                 mid = 0.5 * (e[1:] + e[:-1])
                 keep = mid <= arrays[f"{key}.grid"][-1]
@@ -162,7 +162,7 @@ def sweep_moments(points: list, path, *, keys=("E_H", "E_x2", "E_y2"), title: st
                     continue
                 ys = np.array([r["moments"].get(key, np.nan) for r in rec])
                 name = METHOD_NAMES.get(method, method)
-                if method == "montecarlo":
+                if _sampled(method):
                     se = np.array([r.get("moments_se", {}).get(key, np.nan) for r in rec])
                     ax.errorbar(xs, ys, yerr=se, fmt="o", ms=3, mfc="none", capsize=2, lw=0.8,
                                 color="C2", label=name + " (±1 SE)")

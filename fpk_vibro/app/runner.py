@@ -12,7 +12,6 @@ Layout of an output directory::
 """
 from __future__ import annotations
 
-import importlib
 import os
 import signal
 import time
@@ -25,6 +24,7 @@ from .._checks import InputError
 from ..io import atomic_json, atomic_savez
 from ..model import VibroImpactSystem
 from ..progress import Progress
+from ..registry import methods
 from ..scales import density_grids
 from .execution import SchedulerLost, dask_client, execute
 from .interrupt import Interrupted, received, signals_handled
@@ -42,22 +42,19 @@ grids_for = density_grids
 def _solve(method: str, system: VibroImpactSystem, scene: Scene,
            progress: bool | None = False) -> Any:
     """One method on one system with the scene's keywords; a Solution or a list."""
-    from importlib import import_module
     kw = solver_kwargs(scene, method, progress=progress)
-    if method == "exact":
-        from .. import exact
-        return exact.gibbs(system)
-    module = import_module(f"fpk_vibro.{method}")
+    solve = methods()[method].solver(scene.mode)
     if scene.transient:
-        return list(module.transient(system, initial=scene.initial, times=scene.times, **kw))
-    return module.stationary(system, **kw)
+        return solve(system, initial=scene.initial, times=scene.times, **kw)
+    return solve(system, **kw)
 
 
 def _partial(sol: Any) -> bool:
-    """True for a solution (or list of them) that a signal cut short."""
+    """True for a solution (or a transient's list of them) that a signal cut short:
+    ``partial`` on either (fpk_vibro.solution.Solution.partial, TransientResult)."""
     if isinstance(sol, list):
         return bool(getattr(sol, "partial", False)) or any(_partial(s) for s in sol)
-    return bool(getattr(sol, "partial", False) or getattr(sol, "info", {}).get("partial"))
+    return bool(sol.partial)
 
 
 def _moments_record(sol: Any) -> dict[str, Any]:
@@ -87,7 +84,7 @@ def _density_arrays(snapshots: dict, grids: dict, quantities: list, index: int,
             g = grids[q]
             arrays[f"{key}.grid"] = g
             arrays[f"{key}.pdf"] = getattr(sol, "pdf_" + q)(g)
-            if m == "montecarlo":
+            if methods()[m].sampled:
                 edges, dens, se = sol.histogram(q)
                 arrays[f"{key}.edges"], arrays[f"{key}.hist"], arrays[f"{key}.se"] = edges, dens, se
     return arrays
@@ -106,14 +103,14 @@ def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
         out["power_balance"] = sol.power_balance()
     except NotImplementedError:
         pass
-    if scene.first_passage is not None and method != "exact":
-        module = importlib.import_module(f"fpk_vibro.{method}")
+    m = methods()[method]
+    if scene.first_passage is not None and "first_passage" in m.modes:
         fp = scene.first_passage
-        kw = {"seed": scene.numerics.get("montecarlo", {}).get("seed")} \
-            if method == "montecarlo" else {}
+        seed = scene.numerics.get(method, {}).get("seed")
+        kw = {"seed": seed} if m.sampled else {}
         start = fp["start"] if fp["start"] == "stationary" else tuple(fp["start"])
-        passages[method] = module.first_passage(system, energy=fp["energy"], start=start,
-                                                times=fp["times"], **kw)
+        passages[method] = m.solver("first_passage")(system, energy=fp["energy"], start=start,
+                                                     times=fp["times"], **kw)
         out["first_passage"] = passages[method].to_dict()
     return out
 
@@ -131,7 +128,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
     solutions: dict[str, Any] = {}
     passages: dict[str, Any] = {}
     for method in scene.methods:
-        importlib.import_module(f"fpk_vibro.{method}")   # imports are not the method's time
+        methods()[method].solver(scene.mode)      # imports are not the method's time
         t0 = time.perf_counter()
         sol = _solve(method, system, scene, progress)
         wall = time.perf_counter() - t0

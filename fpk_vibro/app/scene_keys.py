@@ -11,14 +11,18 @@ import math
 from typing import Any
 
 from .._checks import InputError, check_float, closest, invalid
+from ..registry import methods
 from ..model import FIELDS, WALL_FIELDS
 from ..options import REQUIRED, Option, PerMode
 
 __all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "FORMATS", "SWEEPABLE", "STUDY_KEYS",
-           "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option"]
+           "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option",
+           "method_names", "method_tables", "tables"]
 
 
-METHODS = ("averaging", "fem", "montecarlo", "exact")
+#: The methods registered when the package loads (fpk_vibro.registry); a scene
+#: accepts every method registered when it is parsed (:func:`method_names`).
+METHODS = tuple(methods())
 QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
 #: Quantities of a stationary scene only.
 STATIONARY_ONLY = ("impacts", "first_passage")
@@ -34,8 +38,16 @@ class SceneError(InputError):
     """An invalid scene: the message names the key and what is allowed."""
 
 
-def _subset(options: tuple[str, ...], empty: bool = False):
+def method_names() -> tuple[str, ...]:
+    """The registered methods (fpk_vibro.registry), at the time of asking."""
+    return tuple(methods())
+
+
+def _subset(allowed: tuple[str, ...] | Any, empty: bool = False):
+    """A check of a list of names from ``allowed`` (a tuple, or a callable giving it
+    at check time: the registered methods)."""
     def check(name: str, v: Any, where: str | None) -> tuple[str, ...]:
+        options = allowed() if callable(allowed) else allowed
         if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
             raise invalid(where, name, f"a list of names from {list(options)}", v)
         for s in v:
@@ -88,7 +100,7 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
         "name": Option(None, "a label for the results (the default directory uses it with "
                        "every character but letters, digits, '.', '_', '-' replaced)", "text",
                        auto="the scene file's name"),
-        "methods": _option(REQUIRED, "the methods to run", _subset(METHODS),
+        "methods": _option(REQUIRED, "the methods to run", _subset(method_names),
                            f"list of {', '.join(METHODS)}"),
         "quantities": _option(("energy", "x", "y", "moments"), "what to compute",
                               _subset(QUANTITIES), f"list of {', '.join(QUANTITIES)}"),
@@ -124,12 +136,21 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
 
 
 def _method_options(method: str):
-    from importlib import import_module
-    return import_module(f"..{method}.options", __package__).Options
+    return methods()[method].options_class()
 
 
-TABLES = ("system", "barriers", "study", "averaging", "fem", "montecarlo", "initial",
-          "first_passage", "sweep", "output")
+def method_tables() -> tuple[str, ...]:
+    """The registered methods with numerical options: each has a table of its own."""
+    return tuple(name for name, m in methods().items() if m.options is not None)
+
+
+def tables() -> tuple[str, ...]:
+    """Every table a scene may hold, the methods' tables among them."""
+    return ("system", "barriers", "study") + method_tables() + (
+        "initial", "first_passage", "sweep", "output")
+
+
+TABLES = tables()
 
 
 def table_keys(table: str) -> dict[str, Option]:
@@ -137,7 +158,7 @@ def table_keys(table: str) -> dict[str, Option]:
     if table in ("system", "barriers"):
         return {opt.scene.split(".")[1]: opt for opt in FIELDS.values()
                 if opt.scene.startswith(table + ".")}
-    if table in ("averaging", "fem", "montecarlo"):
+    if table in method_tables():
         return {k: o for k, o in _method_options(table).declared().items()
                 if o.scene in ("", "file")}
     if table == "sweep":
@@ -150,7 +171,7 @@ def table_keys(table: str) -> dict[str, Option]:
 
 def __getattr__(name: str) -> Any:
     if name == "SCHEMA":     # every table: imports every method (README, tests)
-        return {t: table_keys(t) for t in TABLES}
+        return {t: table_keys(t) for t in tables()}
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -162,7 +183,7 @@ def schema_table() -> str:
     names both, and a key without a default is "not set".
     """
     rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
-    for table in TABLES:
+    for table in tables():
         for k, opt in table_keys(table).items():
             if opt.default is REQUIRED:
                 default = "required"

@@ -25,9 +25,11 @@ from .. import budget
 from .._checks import InputError, closest, show
 from ..model import FIELDS, VibroImpactSystem
 from ..options import REQUIRED
+from ..registry import methods as method_registry
 from .outdir import safe_name
 from .scene_keys import (FORMATS, METHODS, QUANTITIES, STATIONARY_ONLY, STUDY_KEYS,  # noqa: F401
-                         SWEEPABLE, TABLES, SceneError, _method_options, schema_table,
+                         SWEEPABLE, TABLES, SceneError, _method_options, method_tables,
+                         schema_table, tables,
                          sweep_option, table_keys)
 
 if sys.version_info >= (3, 11):
@@ -44,7 +46,7 @@ MAX_SCENE_BYTES = 1 << 20
 
 def __getattr__(name: str) -> Any:
     if name == "SCHEMA":     # every table: imports every method (README, tests)
-        return {t: table_keys(t) for t in TABLES}
+        return {t: table_keys(t) for t in tables()}
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 _FIELD_OF_KEY = {opt.scene: name for name, opt in FIELDS.items()}
@@ -125,9 +127,9 @@ def load_scene(path: str | Path) -> Scene:
 def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
     """Each given key checked by its declaration; unknown tables/keys rejected."""
     for table in data:
-        if table not in TABLES:
-            raise SceneError(f"[{table}]: unknown table; allowed {list(TABLES)}"
-                             f"{closest(table, TABLES)}", name=table)
+        if table not in tables():
+            raise SceneError(f"[{table}]: unknown table; allowed {list(tables())}"
+                             f"{closest(table, tables())}", name=table)
         if not isinstance(data[table], dict):
             raise SceneError(f"{table}: must be a table [{table}]; got {show(data[table])}",
                              name=table)
@@ -135,14 +137,14 @@ def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
         if table not in data:
             raise SceneError(f"[{table}]: required table is missing ({keys})", name=table)
     clean: dict[str, dict[str, Any]] = {}
-    for table in TABLES:
+    for table in tables():
         given = data.get(table, {})
         if table == "sweep":      # TOML reads `left.r = [...]` as a sub-table
             given = {(f"{k}.{kk}" if isinstance(v, dict) else k): (vv if isinstance(v, dict) else v)
                      for k, v in given.items()
                      for kk, vv in (v.items() if isinstance(v, dict) else [(None, v)])}
         clean[table] = {}
-        if table in ("averaging", "fem", "montecarlo"):
+        if table in method_tables():
             continue              # their Options.from_scene checks them, per mode
         keys = table_keys(table)
         for k, v in given.items():
@@ -210,12 +212,12 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     times = study.get("times")
     mode = "transient" if times is not None else "stationary"
     numerics: dict[str, dict[str, Any]] = {}
-    for m in ("averaging", "fem", "montecarlo"):
+    for m in method_tables():
         try:
             numerics[m] = _method_options(m).from_scene(mode, data[m]) if data.get(m) else {}
         except InputError as exc:
             raise SceneError(str(exc), name=exc.name) from None
-    if numerics["fem"].get("mesh") and base is not None:
+    if numerics.get("fem", {}).get("mesh") and base is not None:
         numerics["fem"]["mesh"] = str(base / numerics["fem"]["mesh"])
     methods = study["methods"]
     ini = clean["initial"]
@@ -225,9 +227,11 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
             raise SceneError("initial.mean: a transient scene (study.times) needs [initial] "
                              "mean = [x0, y0] and std = [sx, sy]", name="initial.mean")
         init = {"mean": ini["mean"], "std": ini["std"]}
-        if "exact" in methods:
-            raise SceneError("study.methods: 'exact' is stationary only; remove it or "
-                             "study.times", name="study.methods")
+        for m in methods:
+            modes = [x for x in method_registry()[m].modes if x != "first_passage"]
+            if "transient" not in modes:
+                raise SceneError(f"study.methods: {m!r} is {' and '.join(modes)} only; "
+                                 "remove it or study.times", name="study.methods")
     elif ini:
         raise SceneError("initial: only used with study.times (a transient scene)",
                          name="initial")
@@ -318,11 +322,10 @@ def _scene_key(method: str, exc: InputError) -> str:
         return f"study.{exc.name}"
     if exc.name == "initial" or exc.name.startswith(("mean", "std", "initial")):
         return "initial." + ("std" if "std" in exc.name else "mean")
-    if exc.name == "system" or not exc.name:
+    if exc.name in ("system", "mode") or not exc.name:
         return "study.methods"
     if exc.name in FIELDS:
         return FIELDS[exc.name].scene
-    if method in ("averaging", "fem", "montecarlo") and \
-            exc.name in _method_options(method).declared():
+    if method in method_tables() and exc.name in _method_options(method).declared():
         return f"{method}.{exc.name}"
     return exc.name

@@ -25,6 +25,7 @@ from scipy import integrate, sparse
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..orbits import orbit_nodes
+from ..solution import TransientResult
 from .coefficients import coefficients
 from .energy_grid import check_coverage, energy_faces, initial_cell_masses
 from .grid_solution import EnergyGridSolution
@@ -113,7 +114,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         P = _integrate(A, p0, h, t_sorted, rtol)
     else:
         P = np.repeat(p0[:, None], t_sorted.size, axis=1)
-    out: list[EnergyGridSolution] = [None] * t_out.size  # type: ignore[list-item]
+    out = TransientResult([None] * t_out.size)
     for j, k in enumerate(order):
         out[k] = EnergyGridSolution(system, faces=faces, density=P[:, j], time=float(t_sorted[j]))
     return out

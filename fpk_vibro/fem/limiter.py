@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SCHEMES", "G_MAX", "limiter_factors"]
+__all__ = ["LIMITERS", "G_MAX", "limiter_factors"]
 
 
 #: Transport schemes of the limited operator (module docstring, part B).
-SCHEMES = ("quick", "van-albada")
+LIMITERS = ("quick", "van-albada")
 
 #: Upper bound on the flux factors g (conditioning safeguard; part B).
 G_MAX = 4.0
@@ -49,8 +49,8 @@ def limiter_factors(p: np.ndarray, xnodes: np.ndarray, ynodes: np.ndarray, syste
     Hamiltonian y-drift fluxes (direction −sign(a x + b x³)).  Always in
     [0, G_MAX], so :func:`positive_generator` stays a generator for any ``p``.
     """
-    if scheme not in SCHEMES:
-        raise ValueError(f"scheme must be one of {SCHEMES}; got {scheme!r}")
+    if scheme not in LIMITERS:
+        raise ValueError(f"scheme must be one of {LIMITERS}; got {scheme!r}")
     eps = (1e-12 * float(np.max(np.abs(p)))) ** 2 + 1e-300
     yn = np.asarray(ynodes)
     xn = np.asarray(xnodes)

@@ -43,12 +43,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._checks import check_float, check_int
-from .limiter import SCHEMES, limiter_factors
+from .limiter import LIMITERS, limiter_factors
 from .positive_grid import bernoulli, dual_weights, positive_generator, wall_injection
 from .solve import SolveInfo
 
 __all__ = ["bernoulli", "dual_weights", "wall_injection", "positive_generator",
-           "limiter_factors", "stationary_positive", "SCHEMES"]
+           "limiter_factors", "stationary_positive", "LIMITERS"]
 
 
 def _gmres_right(B, b: np.ndarray, x0: np.ndarray, prec, m: int) -> np.ndarray:
@@ -163,8 +163,8 @@ def stationary_positive(system, xnodes: np.ndarray, ynodes: np.ndarray, walls, *
         factorisations and the nonlinear defect ‖A(g(p)) p‖∞ / (‖A(g(p))‖∞ ‖p‖∞).
     """
     from .solve import solve_stationary
-    if scheme not in SCHEMES:
-        raise ValueError(f"scheme must be one of {SCHEMES}; got {scheme!r}")
+    if scheme not in LIMITERS:
+        raise ValueError(f"scheme must be one of {LIMITERS}; got {scheme!r}")
     check_float("tol", tol, 0.0, 1.0, hi_open=True)
     check_int("maxiter", maxiter, 1)
     check_int("anderson", anderson, 0)

@@ -49,7 +49,7 @@ from .._checks import check_float
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..progress import Progress
-from ..solution import Solution
+from ..solution import Solution, TransientResult
 from .discretisation import Discretisation, build
 from .solve import factorised as step_solver, grid_nested_dissection, is_p1, nd_lu
 from .solution import FEMSolution
@@ -251,7 +251,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         return _march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache, factorised, progress)
     n_total = int(sum(math.ceil((b - a) / dt - 1e-9) for a, b in zip(np.r_[0.0, t_out[:-1]], t_out)))
     bar = Progress(progress, "fem.transient", total=n_total, unit="step")
-    out: list[FEMSolution] = []
+    out = TransientResult()
     t_now, p_prev, h_prev, steps, t0 = 0.0, None, None, 0, time.perf_counter()
     try:
         for t_target in t_out:
@@ -288,9 +288,11 @@ def _snapshot(disc: Discretisation, p: np.ndarray, t: float, **info: Any) -> FEM
     return sol
 
 
-def _mark_partial(out: list[FEMSolution], t_now: float) -> None:
+def _mark_partial(out: TransientResult, t_now: float) -> None:
+    out.partial = True
     for s in out:
-        s.info["partial"] = True
+        s.partial = True
+        s.info["partial"] = True        # (kept in its file)
     print(f"\nfem.transient: interrupted at t = {t_now:g}; returning {len(out)} "
           "finished time(s)", file=sys.stderr)
 
@@ -312,7 +314,7 @@ def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised,
     hist = [(0.0, p)]                      # accepted (t, p), newest last, at most 3
     g_max = dt_max / 1.5
     k = 10 * LADDER                        # first rung g_max/1024: the first two
-    out: list[FEMSolution] = []            # steps are not error-controlled
+    out = TransientResult()                 # steps are not error-controlled
     steps = rejected = 0
     t_now = 0.0
     bar = Progress(progress, "fem.transient")

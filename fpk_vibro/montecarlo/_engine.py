@@ -14,18 +14,13 @@ from . import _kernel as K
 from . import _setup as S
 from ._summary import _check_finite, _ratio, _reduce
 from .options import Options
+from ..solution import TransientResult
 from .solution import QUANTITIES, MonteCarloSolution
 
 
-class TransientRun(list):
-    """The list of :class:`MonteCarloSolution` returned by :func:`transient`.
-
-    ``partial`` is True when the run was interrupted (Ctrl-C): the list then holds
-    only the times that were reached, ``times_requested`` all of them.
-    """
-
-    partial: bool = False
-    times_requested: tuple = ()
+#: The list :func:`transient` returns (fpk_vibro.solution.TransientResult: ``partial``,
+#: ``times_requested``); the name stays for the code that imports it from here.
+TransientRun = TransientResult
 
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,

@@ -6,6 +6,7 @@ from typing import Any
 import numpy as np
 
 from ..model import BARRIER_KINDS, VibroImpactSystem
+from ..solution import MOMENT_KEYS as _MOMENT_NAMES
 from ..solution import Rule, Solution, Stored
 
 __all__ = ["MonteCarloSolution", "QUANTITIES", "ALL_QUANTITIES"]
@@ -16,7 +17,6 @@ QUANTITIES = ("energy", "x", "y", "joint")
 #: "impacts" (a histogram of the speed just before each impact, per wall).
 ALL_QUANTITIES = QUANTITIES + ("impacts",)
 _SIDES = {"both": ("left", "right"), "left": ("left",), "right": ("right",), "none": ()}
-_MOMENT_NAMES = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
 _HISTS = {"energy": ("edges_H",), "x": ("edges_x",), "y": ("edges_y",),
           "joint": ("edges_jx", "edges_jy")}
 _WALL_KEYS = ("count", "rate", "rate_se", "mean_speed", "mean_speed_se", "mean_square_speed",
