@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import os
 import socket
+import time
 from typing import Any, Callable
 
 from .outdir import point_records
@@ -89,7 +90,7 @@ def _on_dask(point_job: Callable[[tuple], dict[str, Any]], client: Any, jobs: li
             except BaseException as exc:   # CancelledError is one (not an Exception)
                 if "connection-lost" in str(getattr(exc, "reason", "")) or \
                         client.status not in ("running", "newly-created") or \
-                        _scheduler_gone(exc, address):
+                        _scheduler_gone(exc, address, client):
                     lost = True
                     raise SchedulerLost(f"the Dask scheduler {address} was lost "
                                         "mid-sweep") from None
@@ -107,19 +108,31 @@ def _on_dask(point_job: Callable[[tuple], dict[str, Any]], client: Any, jobs: li
         raise
 
 
-def _scheduler_gone(exc: BaseException, address: str) -> bool:
+def _scheduler_gone(exc: BaseException, address: str, client: Any = None,
+                    patience: float = 5.0) -> bool:
     """Whether ``exc`` (fetching a result) is the scheduler's loss: a closed
     connection while nothing listens at ``address`` any more.  The client notices
     the loss itself only later, so a result fetched in between would otherwise be
-    taken for a point's own failure."""
+    taken for a point's own failure; and a killed cluster's workers may drop their
+    connections a moment before its scheduler stops listening, so a still-open
+    address is asked again for up to ``patience`` seconds (measured: fresh-ci once
+    saw the worker's 'Stream is closed' while the scheduler still answered)."""
     from distributed.comm import CommClosedError, parse_address, parse_host_port
     if not isinstance(exc, (CommClosedError, OSError)) or not address:
         return False
     try:
         host, port = parse_host_port(parse_address(address)[1])
-        socket.create_connection((host, port), timeout=2.0).close()
-    except OSError:
-        return True
     except Exception:      # an address the check cannot read: not proof of a loss
         return False
+    deadline = time.monotonic() + patience
+    while True:
+        try:
+            socket.create_connection((host, port), timeout=2.0).close()
+        except OSError:
+            return True
+        if client is not None and client.status not in ("running", "newly-created"):
+            return True
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.2)
     return False
