@@ -14,9 +14,13 @@ from typing import Any, Callable
 
 from ._checks import InputError, check_bool, check_choice, check_float, check_int, invalid
 
-__all__ = ["Option", "PerMode", "option", "MODES", "REQUIRED"]
+__all__ = ["Option", "PerMode", "option", "MODES", "DENSITY_MODES", "REQUIRED"]
 
-MODES = ("stationary", "transient")
+#: The runs an option can serve: densities (stationary, transient) and the first
+#: passage out of a safe set (``first_passage(system, *, energy, start, times, ...)``).
+MODES = ("stationary", "transient", "first_passage")
+#: The modes of an option that does not name its own: the density runs.
+DENSITY_MODES = ("stationary", "transient")
 
 
 class _Required:
@@ -29,14 +33,36 @@ class _Required:
 REQUIRED = _Required()
 
 
-@dataclass(frozen=True)
-class PerMode:
-    """A default (or reduced size) that differs between stationary and transient runs."""
-    stationary: Any
-    transient: Any
+class _Same:
+    """The first-passage value of a :class:`PerMode` that is the stationary one."""
 
     def __repr__(self) -> str:
-        return f"{self.stationary!r} (transient {self.transient!r})"
+        return "as stationary"
+
+
+_SAME = _Same()
+
+
+@dataclass(frozen=True)
+class PerMode:
+    """A default (or reduced size) that differs between the modes.
+
+    ``first_passage`` is the stationary value unless given (first passage runs from
+    a stationary scene).
+    """
+    stationary: Any
+    transient: Any
+    first_passage: Any = _SAME
+
+    def of(self, mode: str) -> Any:
+        """The value for ``mode`` (one of :data:`MODES`)."""
+        if mode == "first_passage" and self.first_passage is _SAME:
+            return self.stationary
+        return getattr(self, mode)
+
+    def __repr__(self) -> str:
+        fp = "" if self.first_passage is _SAME else f", first passage {self.first_passage!r}"
+        return f"{self.stationary!r} (transient {self.transient!r}{fp})"
 
 
 @dataclass(frozen=True)
@@ -46,7 +72,9 @@ class Option:
     ``kind`` is "int", "float", "choice", "bool", "text" or "custom" (then
     ``check(name, value, where)`` validates and ``allowed`` describes it).  ``auto``
     says what ``None`` means (None is then allowed).  ``modes`` are the runs that use
-    it.  ``reduced`` is the cap of a reduced run ("drop" removes the option).
+    it (default the density runs, :data:`DENSITY_MODES`; "first_passage" for the
+    keywords of the methods' ``first_passage``).  ``reduced`` is the cap of a reduced
+    run ("drop" removes the option).
     ``scene`` is "" (the key in the method's table), "file" (a path in the scene)
     or the scene key / CLI flag that sets it.
     """
@@ -61,7 +89,7 @@ class Option:
     even: bool = False
     unit: str = ""
     auto: str = ""
-    modes: tuple = MODES
+    modes: tuple = DENSITY_MODES
     reduced: Any = None
     scene: str = ""
     check: Callable[[str, Any, str | None], Any] | None = None
@@ -78,7 +106,7 @@ class Option:
             raise InputError(f"{exc} ({self.why})", where=exc.where, name=exc.name) from None
 
     def default_for(self, mode: str) -> Any:
-        return getattr(self.default, mode) if isinstance(self.default, PerMode) else self.default
+        return self.default.of(mode) if isinstance(self.default, PerMode) else self.default
 
     @property
     def nullable(self) -> bool:

@@ -22,9 +22,17 @@ from typing import Any, ClassVar
 from ._checks import InputError
 # the schema lives in option_schema (the model declares its fields with it); these
 # names stay importable from here
-from .option_schema import MODES, REQUIRED, Option, PerMode, _Required, _toml, option  # noqa: F401
+from .option_schema import (DENSITY_MODES, MODES, REQUIRED, Option, PerMode,  # noqa: F401
+                            _Required, _toml, option)
 
-__all__ = ["Option", "PerMode", "option", "Options", "MODES", "REQUIRED"]
+__all__ = ["Option", "PerMode", "option", "Options", "MODES", "DENSITY_MODES", "REQUIRED"]
+
+#: Where a run of each mode comes from in a scene (for the refusal of a key of
+#: another mode).
+_MODE_RUNS = {"stationary": "stationary (no study.times)",
+              "transient": "transient (with study.times)",
+              "first_passage": "first-passage (a stationary scene with the quantity "
+                               "\"first_passage\")"}
 
 
 class Options:
@@ -66,8 +74,12 @@ class Options:
     def from_scene(cls, mode: str, table: dict[str, Any]) -> dict[str, Any]:
         """Validate a scene table for ``mode``: {key: value} of the keys given.
 
-        Raises :class:`InputError` whose ``name`` is the scene key (``fem.nx``).
+        A stationary scene's table also holds the keys of first passage (which runs
+        from a stationary scene); whether the scene asks for it is checked with
+        the scene (:func:`fpk_vibro.app.plan.plan`).  Raises :class:`InputError`
+        whose ``name`` is the scene key (``fem.nx``).
         """
+        modes = (mode, "first_passage") if mode == "stationary" else (mode,)
         declared = cls.declared()
         out = {}
         for key, value in table.items():
@@ -78,9 +90,8 @@ class Options:
                 keys = [k for k, o in declared.items() if o.scene in ("", "file")]
                 hint = f" (set by {opt.scene})" if opt is not None else closest(key, keys)
                 raise InputError(f"{full}: unknown key; allowed {keys}{hint}", name=full)
-            if mode not in opt.modes:
-                other = "stationary (no study.times)" if mode == "transient" else \
-                    "transient (with study.times)"
+            if not set(modes) & set(opt.modes):
+                other = " or ".join(_MODE_RUNS[m] for m in opt.modes)
                 raise InputError(f"{full}: only used by {other} runs; remove it", name=full)
             out[key] = opt.validate(full, value, None)
         return out
@@ -90,9 +101,7 @@ class Options:
         """The scene values of a reduced run: each size capped at its ``reduced``."""
         out = dict(given)
         for name, opt in cls.for_mode(mode).items():
-            cap = opt.reduced.transient if isinstance(opt.reduced, PerMode) and mode == \
-                "transient" else (opt.reduced.stationary if isinstance(opt.reduced, PerMode)
-                                  else opt.reduced)
+            cap = opt.reduced.of(mode) if isinstance(opt.reduced, PerMode) else opt.reduced
             if cap is None:
                 continue
             if cap == "drop":

@@ -3,25 +3,40 @@
 :func:`solver_kwargs` is what the runner passes to a solver; :func:`plan` runs on
 those very keywords every check the solver runs before its work (the method's
 ``Options`` declaration, ``validate_for`` with the system, the initial condition,
-the budget) and returns the cost estimate.  ``fpk-vibro check`` and ``run`` both
-call it, so a scene that passes the check passes the solver's own checks.
+the budget) and returns the cost estimate; with the quantity "first_passage" it
+checks the method's first-passage keywords (:func:`first_passage_kwargs`) too.
+``fpk-vibro check`` and ``run`` both call it, so a scene that passes the check passes
+the solver's own checks.
 """
 from __future__ import annotations
 
 from typing import Any
 
+from .._checks import InputError
 from ..budget import Cost
 from ..model import VibroImpactSystem
-from ..montecarlo.solution import ALL_QUANTITIES
 from ..registry import methods
 
-__all__ = ["solver_kwargs", "plan", "resolved_options", "SOLVER_QUANTITIES"]
+__all__ = ["solver_kwargs", "first_passage_kwargs", "plan", "resolved_options",
+           "SOLVER_QUANTITIES"]
 
-#: The histograms a sampled run can accumulate (declared by the Monte Carlo solution).
-SOLVER_QUANTITIES = ALL_QUANTITIES
 #: The quantities a method is asked to have densities for (the others are derived, or
 #: skipped for a method without that mode: first passage).
 DENSITIES = ("energy", "x", "y", "joint")
+
+
+def __getattr__(name: str) -> Any:
+    if name == "SOLVER_QUANTITIES":
+        return _solver_quantities()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _solver_quantities() -> tuple[str, ...]:
+    """SOLVER_QUANTITIES: the histograms a sampled run can accumulate (declared by the
+    Monte Carlo solution, imported only when asked: a scene without Monte Carlo
+    does not import it)."""
+    from ..montecarlo.solution import ALL_QUANTITIES
+    return ALL_QUANTITIES
 
 
 def _options(method: str):
@@ -37,10 +52,38 @@ def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> 
     kw = dict(scene.numerics.get(method, {}))
     declared = Options.declared()
     if "quantities" in declared:
-        kw["quantities"] = tuple(q for q in scene.quantities if q in SOLVER_QUANTITIES)
+        kw["quantities"] = tuple(q for q in scene.quantities if q in _solver_quantities())
     if "progress" in declared:
         kw["progress"] = progress
     return {k: v for k, v in kw.items() if scene.mode in declared[k].modes}
+
+
+def first_passage_kwargs(scene: Any, method: str) -> dict[str, Any]:
+    """The numerical keywords of ``method``'s ``first_passage`` for ``scene`` (besides
+    system, energy, start, times): the keys of its table declared for first passage
+    (``Options.for_mode("first_passage")``)."""
+    Options = _options(method)
+    if Options is None:
+        return {}
+    declared = Options.for_mode("first_passage")
+    return {k: v for k, v in scene.numerics.get(method, {}).items() if k in declared}
+
+
+def _check_first_passage(scene: Any, method: str, system: VibroImpactSystem,
+                         Options: Any) -> None:
+    """The first-passage keywords as the solver checks them (range, rules, budget);
+    a key of first passage alone in a scene that does not ask for it is refused."""
+    if scene.first_passage is not None and "first_passage" in methods()[method].modes:
+        Options.prepare(system, "first_passage", first_passage_kwargs(scene, method),
+                        probe=True)
+        return
+    declared = Options.declared()
+    for key in scene.numerics.get(method, {}):
+        if scene.mode not in declared[key].modes:
+            runs = " or ".join(m.replace("_", " ") for m in declared[key].modes)
+            raise InputError(f"{method}: {key}: only used by {runs} runs (first passage: "
+                             "the quantity \"first_passage\" with a [first_passage] "
+                             "table); remove it", where=method, name=key)
 
 
 def resolved_options(scene: Any, method: str) -> dict[str, Any]:
@@ -73,4 +116,5 @@ def plan(scene: Any, method: str, system: VibroImpactSystem) -> Cost:
         init = parse_initial(scene.initial, system)
     _, cost = Options.prepare(system, scene.mode, solver_kwargs(scene, method), initial=init,
                               times=scene.times, probe=True)
+    _check_first_passage(scene, method, system, Options)
     return cost

@@ -29,7 +29,7 @@ from ..scales import density_grids
 from .execution import SchedulerLost, dask_client, execute
 from .interrupt import Interrupted, received, signals_handled
 from .outdir import OutputDir, holds, point_records
-from .plan import resolved_options, solver_kwargs
+from .plan import first_passage_kwargs, resolved_options, solver_kwargs
 from .results import storage_failed, write_results
 from .resume import clear_outputs, clear_temporaries, fingerprint, select, storage_fault
 from .scenes import Scene, check_scene
@@ -106,8 +106,7 @@ def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
     m = methods()[method]
     if scene.first_passage is not None and "first_passage" in m.modes:
         fp = scene.first_passage
-        seed = scene.numerics.get(method, {}).get("seed")
-        kw = {"seed": seed} if m.sampled else {}
+        kw = first_passage_kwargs(scene, method)   # the table's first-passage keys
         start = fp["start"] if fp["start"] == "stationary" else tuple(fp["start"])
         passages[method] = m.solver("first_passage")(system, energy=fp["energy"], start=start,
                                                      times=fp["times"], **kw)

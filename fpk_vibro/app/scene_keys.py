@@ -180,7 +180,8 @@ def schema_table() -> str:
 
     Defaults are written as a scene writes them (TOML): ``true``, ``"auto"``,
     ``[0.0, 0.0]``; a default that differs between stationary and transient runs
-    names both, and a key without a default is "not set".
+    names both (and first passage where it has one), and a key without a default is
+    "not set"; a key of first passage says which runs use it.
     """
     rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
     for table in tables():
@@ -188,10 +189,12 @@ def schema_table() -> str:
             if opt.default is REQUIRED:
                 default = "required"
             elif isinstance(opt.default, PerMode):
+                modes = [m for m in ("stationary", "transient", "first_passage")
+                         if m in opt.modes]
                 default = " / ".join(
-                    f"{mode}: " + (_toml(v) if v is not None else opt.auto or "not set")
-                    for mode, v in (("stationary", opt.default.stationary),
-                                    ("transient", opt.default.transient)))
+                    f"{mode.replace('_', ' ')}: " + (_toml(v) if v is not None
+                                                     else opt.auto or "not set")
+                    for mode, v in ((m, opt.default.of(m)) for m in modes))
             elif opt.auto in ("none", "") and opt.default is None:
                 default = "not set"
             elif opt.auto:
@@ -201,7 +204,10 @@ def schema_table() -> str:
             allowed = opt.describe() + (f" ({opt.unit})" if opt.unit else "")
             doc = opt.doc
             if len(opt.modes) == 1:
-                doc += f"; {opt.modes[0]} runs only"
+                doc += f"; {opt.modes[0].replace('_', ' ')} runs only"
+            elif "first_passage" in opt.modes:
+                names = [m.replace("_", " ") for m in opt.modes]
+                doc += "; " + ", ".join(names[:-1]) + " and " + names[-1] + " runs"
             cells = (f"`{table}.{k}`", default, allowed, doc)
             rows.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     return "\n".join(rows)

@@ -28,7 +28,7 @@ from typing import Any, Sequence
 import numpy as np
 from scipy import integrate, linalg
 
-from .._checks import InputError, check_int
+from .._checks import InputError
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
                              parse_start)
 from ..model import VibroImpactSystem, check_system
@@ -36,6 +36,7 @@ from ..orbits import energy_floor, orbit_nodes
 from .coefficients import coefficients
 from .stationary import stationary
 from .energy_grid import energy_faces
+from .options import Options
 from .transient import averaged_operator
 
 __all__ = ["first_passage", "log10_mean_time"]
@@ -104,7 +105,9 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     n_grid : int
         Quadrature nodes of the τ integral (quadratically graded at the floor).
     n_cells : int
-        Finite-volume cells of the reliability.
+        Finite-volume cells of the reliability.  Both are declared (range, default)
+        by :class:`fpk_vibro.averaging.Options`, mode "first_passage", which also
+        refuses a call beyond the budget (:mod:`fpk_vibro.budget`).
 
     Returns
     -------
@@ -122,8 +125,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     H_c = check_energy(where, system, energy)
     kind, value = parse_start(where, system, start, H_c)
     requested = check_times(where, times)
-    n_grid = check_int("n_grid", n_grid, 16, 10 ** 7, where=where)
-    n_cells = check_int("n_cells", n_cells, 16, 20000, where=where)
+    opts, _ = Options.prepare(system, "first_passage", locals())
+    n_grid, n_cells = opts.n_grid, opts.n_cells
     sol = stationary(system)
     u, ltau = _log_tau(system, sol, H_c, n_grid)
     if not ltau[0] < math.log(MAX_TAU):

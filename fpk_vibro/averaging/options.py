@@ -15,13 +15,14 @@ from .normalisation import normalise
 
 __all__ = ["Options"]
 
-S, T = ("stationary",), ("transient",)
+S, T, FP = ("stationary",), ("transient",), ("first_passage",)
 
 
 @dataclass(frozen=True)
 class Options(_Options):
-    """Numerical options of :func:`~fpk_vibro.averaging.stationary` and
-    :func:`~fpk_vibro.averaging.transient`."""
+    """Numerical options of :func:`~fpk_vibro.averaging.stationary`,
+    :func:`~fpk_vibro.averaging.transient` and
+    :func:`~fpk_vibro.averaging.first_passage`."""
 
     WHERE = "averaging"
 
@@ -29,8 +30,12 @@ class Options(_Options):
     n_panel: int = option(24, "Gauss–Legendre nodes per energy panel", "int", lo=4, hi=200)
     phi_cut: float = option(60.0, "energies covered until Φ(H) ≥ phi_cut (neglected mass "
                             "< e^-phi_cut)", "float", lo=10.0, hi=700.0)
-    n_cells: int = option(400, "finite-volume cells in H", "int", lo=16, hi=50_000,
-                          modes=T, reduced=200)
+    n_cells: int = option(400, "finite-volume cells in H (first passage: of the "
+                          "reliability, up to H_c)", "int", lo=16, hi=50_000,
+                          modes=T + FP, reduced=200)
+    n_grid: int = option(4000, "quadrature nodes of the mean first-passage time integral "
+                         "(graded at the floor of the potential)", "int", lo=16,
+                         hi=10 ** 7, modes=FP)
     H_max: float | None = option(None, "upper end of the energy grid", "float", lo=0.0,
                                  lo_open=True, unit="J/kg", modes=T,
                                  auto="where the stationary density is e^-40 of its peak, "
@@ -42,7 +47,10 @@ class Options(_Options):
 
     def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = False) -> None:
         """The system-dependent checks: one orbit per energy level, and (``probe``) a
-        light tail where a linear spring meets parametric noise on an open side."""
+        light tail where a linear spring meets parametric noise on an open side.
+        First passage checks its system itself (with the energy)."""
+        if mode == "first_passage":
+            return
         from ..orbits import require_single_well
         try:
             require_single_well(system)
@@ -63,8 +71,13 @@ class Options(_Options):
         check_coverage(initial_cell_masses(init, faces, seed=self.seed), self.H_max)
 
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
-        """Memory and seconds measured on the paper's case (docs/costs.md)."""
+        """Memory and seconds measured on the paper's case (docs/costs.md); first
+        passage: the dense eigen-decomposition of its n_cells generator."""
         nodes = self.n_theta * self.n_panel
+        if mode == "first_passage":       # A, V (complex), LU and eig's workspace
+            n = float(self.n_cells)
+            return Cost(100e6 + 64.0 * n * n + 200.0 * self.n_grid, n ** 3, "flops/10",
+                        0.5 + 1e-9 * n ** 3 + 2e-6 * self.n_grid, "n_cells")
         stationary = Cost(60e6 + 400 * nodes * 8 * 12, nodes * 400, "orbit nodes",
                           0.01 + 0.02 * nodes / (48 * 24), "n_theta")
         if mode == "stationary":

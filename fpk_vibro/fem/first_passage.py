@@ -48,11 +48,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from .. import budget
-from .._checks import check_float, check_int
 from ..budget import Cost
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
                              parse_start, survival_at)
 from ..model import VibroImpactSystem, check_system
+from .options import PASSAGE_NX, Options, passage_cost
 from .passage_parts import RESOLVABLE, TauField, solve_part, survival, unresolvable
 from .safe_set import safe_set_components, safe_set_mesh
 
@@ -64,20 +64,12 @@ __all__ = ["first_passage", "safe_set_components", "safe_set_mesh", "RESOLVABLE"
 #: part (R ~ e^-40 there) even if later times are requested; R is read beyond it
 #: with its decay rate.
 HORIZON = 40.0
+
+
 def estimate(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_steps: int,
              parts: int = 1) -> Cost:
-    """Memory and time of a call: the stationary solver's cost model
-    (:meth:`fpk_vibro.fem.Options.estimate`, general assembly) for one factorisation
-    per part, two factors alive at once in the reliability march (five in all) and
-    at most 8 n_steps steps of two triangular solves."""
-    from .options import Options
-    one = Options(nx=nx, ny=ny, degree=degree, positivity=False,
-                  assembly="general").estimate(system, "stationary")
-    n = float((degree * nx + 1) * (degree * ny + 1))
-    lu, factor_s = one.memory - 80e6, one.seconds - 0.2
-    steps = 8.0 * n_steps
-    return Cost(80e6 + 2.0 * lu, parts * n * steps, "DOF-steps",
-                0.2 + parts * (5.0 * factor_s + steps * 2.0 * 3e-7 * n), "nx")
+    """Memory and time of a call (:func:`fpk_vibro.fem.options.passage_cost`)."""
+    return passage_cost(system, nx, ny, degree, n_steps, parts)
 
 
 def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
@@ -106,6 +98,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         refinement starts.
     n_steps : int
         BDF2 steps of the reliability march per 5 τ (at most 8 n_steps in all).
+        These numerical keywords are declared (range, default) by
+        :class:`fpk_vibro.fem.Options`, mode "first_passage".
     rtol : float, optional
         Target of the error estimate: nx (and ny, n_steps) are doubled, up to
         :data:`MAX_NX`, until both ``error_estimate()["mean_time"]`` and
@@ -142,14 +136,10 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     H_c = check_energy(where, system, energy)
     kind, value = parse_start(where, system, start, H_c)
     requested = check_times(where, times)
-    nx = check_int("nx", DEFAULT_NX if nx is None else nx, 2, 4096, where=where)
-    ny = check_int("ny", 2 * nx if ny is None else ny, 2, 8192, where=where)
-    if ny % 2:
-        raise ValueError(f"{where}: ny must be even (y = 0 is a mesh line); got {ny}")
-    degree = check_int("degree", degree, 1, 2, where=where)
-    n_steps = check_int("n_steps", n_steps, 10, 10 ** 6, where=where)
-    if rtol is not None:
-        rtol = check_float("rtol", rtol, lo=0.0, lo_open=True, where=where)
+    opts, _ = Options.prepare(system, "first_passage", locals())
+    nx = DEFAULT_NX if opts.nx is None else opts.nx
+    ny = 2 * nx if opts.ny is None else opts.ny
+    degree, n_steps, rtol = opts.degree, opts.n_steps, opts.rtol
     parts = safe_set_components(system, H_c)
     if not parts:
         raise ValueError(f"{where}: the safe set H < {H_c:g} is empty on the strip")
@@ -228,9 +218,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
                         info, _mean_at=field, _estimate=estimate_)
 
 
-#: Cells across x by default: within 0.2 % of converged on the measured cases
-#: (docs/fem_first_passage.md) in about a second.
-DEFAULT_NX = 32
+#: Cells across x by default (:data:`fpk_vibro.fem.options.PASSAGE_NX`).
+DEFAULT_NX = PASSAGE_NX
 #: Largest nx the rtol refinement goes to.
 MAX_NX = 512
 #: The lowest order the two-level estimate assumes: error ≤ |fine − coarse| / (2^ORDER − 1).

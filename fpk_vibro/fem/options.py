@@ -24,6 +24,7 @@ from .wall_layers import MAX_CONTRAST, check_wall_layers, wall_layers  # noqa: F
 
 __all__ = [
     "DEFAULT_NX",
+    "PASSAGE_NX",
     "DEFAULT_RTOL",
     "WALL_GRADING",
     "POSITIVITY",
@@ -33,7 +34,13 @@ __all__ = [
     "load_strip_mesh",
 ]
 
-S, T = ("stationary",), ("transient",)
+S, T, FP = ("stationary",), ("transient",), ("first_passage",)
+#: The mesh options shared by the densities and first passage.
+ALL = ("stationary", "transient", "first_passage")
+#: Cells across x of each part of the safe set in first passage by default: within
+#: 0.2 % of converged on the measured cases (docs/fem_first_passage.md) in about a
+#: second.
+PASSAGE_NX = 32
 #: positivity values: the tensor-grid generator's (stationary and transient), then
 #: the algebraic ones (stationary, any mesh).  "auto" (the stationary default):
 #: Galerkin made non-negative by a local mass-keeping correction whose changes
@@ -83,8 +90,9 @@ def _discretisation(name: str, value: Any, where: str | None) -> Any:
 
 @dataclass(frozen=True)
 class Options(_Options):
-    """Numerical options of :func:`~fpk_vibro.fem.stationary` and
-    :func:`~fpk_vibro.fem.transient`."""
+    """Numerical options of :func:`~fpk_vibro.fem.stationary`,
+    :func:`~fpk_vibro.fem.transient` and :func:`~fpk_vibro.fem.first_passage` (there
+    nx, ny, degree mesh each part of the safe set, rtol drives its refinement)."""
 
     WHERE = "fem"
 
@@ -93,29 +101,36 @@ class Options(_Options):
                        check=_mesh, allowed="a mesh file", scene="file", reduced="drop",
                        auto="a structured mesh of nx × ny cells")
     nx: int | None = option(None, "cells across x", "int", lo=2, hi=10 ** 6, reduced=24,
-                            auto="128, 48, 32, 24 for degree 1, 2, 3, 4")
+                            modes=ALL, auto="128, 48, 32, 24 for degree 1, 2, 3, 4 (first "
+                            "passage: 32)")
     ny: int | None = option(None, "cells across y (even: y = 0 is a mesh line)", "int",
-                            lo=2, hi=10 ** 6, even=True, reduced=32,
-                            auto="h_y ≈ 1.5 h_x, at most 4 nx")
+                            lo=2, hi=10 ** 6, even=True, reduced=32, modes=ALL,
+                            auto="h_y ≈ 1.5 h_x, at most 4 nx (first passage: 2 nx)")
     y_max: float | None = option(None, "velocity truncation |y| < y_max", "float", lo=0.0,
                                  lo_open=True, unit="m/s",
                                  auto="the energy-tail rule of fpk_vibro.scales (mass "
                                       "beyond < 1e-8)")
-    degree: int | None = option(PerMode(1, None), "Lagrange degree: 1 (Q1/P1), 2 (Q2/P2); "
+    degree: int | None = option(PerMode(1, None, 2), "Lagrange degree: 1 (Q1/P1), 2 (Q2/P2); "
                                 "3 or 4 (Q3/Q4, the structured quad mesh with tensor "
-                                "assembly)", "int", lo=1, hi=4,
+                                "assembly; not in first passage)", "int", lo=1, hi=4,
+                                modes=ALL,
                                 auto="2, or 1 with positivity")
     rtol: float | None = option(None, "accuracy goal: degree 2-4 and nx are chosen until the "
                                 "estimated relative errors of E[H], E[x²], E[y²], P_impact "
                                 "are below it (sol.error_estimate(), which also gives the "
                                 "L1 error; in a transient at every output time, space "
-                                "and time); not with mesh, nx, ny, degree or positivity",
-                                "float", lo=1e-10, hi=0.5,
+                                "and time); not with mesh, nx, ny, degree or positivity "
+                                "(first passage: nx, ny, n_steps doubled from the given "
+                                "ones until its two-level estimate meets it)",
+                                "float", lo=1e-10, hi=0.5, modes=ALL,
                                 auto="stationary: 1e-4 (best effort: flagged, not "
                                      "refused, when not reached) unless mesh, nx, ny or "
                                      "positivity is given, then no adaptation (the "
                                      "estimate is still available: sol.error_estimate()); "
-                                     "transient: no adaptation")
+                                     "transient, first passage: no adaptation")
+    n_steps: int = option(200, "BDF2 steps of the first-passage reliability march per 5 "
+                          "mean times (at most 8 n_steps in all)", "int", lo=10,
+                          hi=10 ** 6, modes=FP)
     solver: str = option("auto", "linear solver of the stationary system", "choice",
                          choices=SOLVERS, modes=S)
     element: str = option("quad", "structured quadrilaterals or triangles", "choice",
@@ -166,6 +181,12 @@ class Options(_Options):
 
         def bad(name: str, msg: str) -> InputError:
             return InputError(f"{where}: {name} {msg}", where=where, name=name)
+
+        if mode == "first_passage":      # a mesh of the safe set, built by the solver
+            if self.degree > 2:
+                raise invalid(where, "degree", "an integer in [1, 2] (the isoparametric "
+                              "mesh of the safe set)", self.degree)
+            return
 
         if mode == "stationary" and self.rtol is not None:
             if self.degree != 1:
@@ -318,7 +339,12 @@ class Options(_Options):
         return (k * nx + 1) * (k * ny + 1)
 
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
-        """Memory, DOFs × steps and seconds (constants: docs/costs.md)."""
+        """Memory, DOFs × steps and seconds (constants: docs/costs.md); first
+        passage: :func:`passage_cost` of one part of the safe set."""
+        if mode == "first_passage":
+            nx = PASSAGE_NX if self.nx is None else self.nx
+            return passage_cost(system, nx, 2 * nx if self.ny is None else self.ny,
+                                self.degree, self.n_steps)
         n = float(self.ndofs(system))
         fill = 2200.0 if self.degree == 1 else 3000.0
         lu = n * fill * max(1.0, math.log2(max(n, 2.0)) / 17.0)
@@ -349,6 +375,21 @@ class Options(_Options):
         key = "times" if t_end / dt > 1e7 else key
         return Cost(80e6 + copies * lu, n * steps, "DOF-steps",
                     0.2 + 10 * factor_s + steps * per_step, key)
+
+
+def passage_cost(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_steps: int,
+                 parts: int = 1) -> Cost:
+    """Memory and time of a first passage: the stationary cost model (general
+    assembly) for one factorisation per part, two factors alive at once in the
+    reliability march (five in all) and at most 8 n_steps steps of two triangular
+    solves."""
+    one = Options(nx=nx, ny=ny, degree=degree, positivity=False,
+                  assembly="general").estimate(system, "stationary")
+    n = float((degree * nx + 1) * (degree * ny + 1))
+    lu, factor_s = one.memory - 80e6, one.seconds - 0.2
+    steps = 8.0 * n_steps
+    return Cost(80e6 + 2.0 * lu, parts * n * steps, "DOF-steps",
+                0.2 + parts * (5.0 * factor_s + steps * 2.0 * 3e-7 * n), "nx")
 
 
 def thermal_velocity(system: VibroImpactSystem) -> float:

@@ -82,27 +82,20 @@ STATIONARY_BURN = 9.0
 MIN_ACCEPT = 1e-3
 
 
-def _check_args(system, energy, start, n_paths, dt, t_max, seed, times, threads, progress,
-                bridge) -> dict[str, Any]:
-    """Every argument checked (one-line ValueError naming it), defaults filled in."""
+def _check_args(system, energy, start, times, values: dict[str, Any]) -> dict[str, Any]:
+    """Every argument checked (one-line InputError naming it), defaults filled in: the
+    numerical keywords by the declared options (:class:`.options.Options`, mode
+    "first_passage", with the budget)."""
+    from .options import Options
     check_system(WHERE, system)
     H_c = check_energy(WHERE, system, energy)
     kind, value = parse_start(WHERE, system, start, H_c)
-    out = {"H_c": H_c, "kind": kind, "value": value,
-           "n_paths": _checks.check_int("n_paths", n_paths, 2, 10 ** 7, where=WHERE)}
-    limit = S.dt_limit(system)
-    out["dt"] = S.default_dt(system) if dt is None else _checks.check_float(
-        "dt", dt, 0.0, limit, where=WHERE)
-    out["t_max"] = None if t_max is None else _checks.check_float(
-        "t_max", t_max, out["dt"], math.inf, lo_open=False, where=WHERE)
-    out["seed"] = None if seed is None else S.check_seed("seed", seed, WHERE)
-    out["times"] = check_times(WHERE, times)
-    out["threads"] = None if threads is None else _checks.check_int(
-        "threads", threads, 1, 1024, where=WHERE)
-    out["progress"] = None if progress is None else _checks.check_bool(
-        "progress", progress, where=WHERE)
-    out["bridge"] = _checks.check_bool("bridge", bridge, where=WHERE)
-    return out
+    requested = check_times(WHERE, times)
+    opts, _ = Options.prepare(system, "first_passage", values)
+    return {"H_c": H_c, "kind": kind, "value": value, "n_paths": opts.n_paths,
+            "dt": opts.resolved(system, "first_passage")["dt"], "t_max": opts.t_max,
+            "seed": opts.seed, "times": requested, "threads": opts.threads,
+            "progress": opts.progress, "bridge": opts.bridge}
 
 
 def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
@@ -124,7 +117,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         "stationary": states of a stationary run (burn-in of 9 relaxation times)
         with H < H_c.
     n_paths : int, default 4096
-        Independent paths, in [2, 10⁷]; the standard error of τ falls as
+        Independent paths, at least 2 (and within the budget,
+        :mod:`fpk_vibro.budget`); the standard error of τ falls as
         1/sqrt(n_paths) (T is about exponential when H_c is well above E[H]:
         SE ≈ τ/sqrt(n_paths)).
     dt : float, optional
@@ -164,7 +158,9 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     Raises
     ------
     ValueError
-        For an invalid argument (naming it), before any simulation; or a start
+        For an invalid argument (an InputError naming it; the numerical keywords are
+        declared by :class:`fpk_vibro.montecarlo.Options`, mode "first_passage"),
+        or a run beyond the budget, before any simulation; or a start
         that puts almost no mass (< 0.1 %) inside the safe set.
     FloatingPointError
         If a path becomes NaN (a time step too large for the motion).
@@ -182,8 +178,7 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     >>> 70 < fp.mean < 90
     True
     """
-    a = _check_args(system, energy, start, n_paths, dt, t_max, seed, times, threads,
-                    progress, bridge)
+    a = _check_args(system, energy, start, times, locals())
     t0 = time.perf_counter()
     H_c, n, dt = a["H_c"], a["n_paths"], a["dt"]
     ss = S.seed_sequence(a["seed"])

@@ -15,7 +15,11 @@ from .solution import ALL_QUANTITIES, QUANTITIES
 
 __all__ = ["Options"]
 
-ST, TR = ("stationary",), ("transient",)
+ST, TR, FP = ("stationary",), ("transient",), ("first_passage",)
+#: Every mode (densities and first passage).
+ALL = ("stationary", "transient", "first_passage")
+#: First horizon of an adaptive first passage, in relaxation times (its cost model).
+FP_FIRST = 10.0
 
 #: Path-steps per second of one thread (benchmark medians, docs/costs.md), kept low.
 PATH_STEPS_PER_S = 1.0e8
@@ -27,15 +31,16 @@ COARSE = 8.0
 
 @dataclass(frozen=True)
 class Options(_Options):
-    """Numerical options of :func:`~fpk_vibro.montecarlo.stationary` and
-    :func:`~fpk_vibro.montecarlo.transient`."""
+    """Numerical options of :func:`~fpk_vibro.montecarlo.stationary`,
+    :func:`~fpk_vibro.montecarlo.transient` and
+    :func:`~fpk_vibro.montecarlo.first_passage`."""
 
     WHERE = "montecarlo"
 
-    n_paths: int = option(PerMode(2048, 4096), "independent paths", "int", lo=2,
-                          hi=10 ** 9, reduced=512)
+    n_paths: int = option(PerMode(2048, 4096, 4096), "independent paths", "int", lo=2,
+                          hi=10 ** 9, reduced=512, modes=ALL)
     dt: float | None = option(None, "time step (the largest, in a transient)", "float",
-                              lo=0.0, lo_open=True, unit="s",
+                              lo=0.0, lo_open=True, unit="s", modes=ALL,
                               auto="the smallest of T0/120, 1/(10 c), noise time/4 and crossing "
                               "time/k(r) (montecarlo._setup.step_bounds), smaller for "
                               "target_rse < 1e-3")
@@ -45,7 +50,7 @@ class Options(_Options):
                                     lo_open=True, unit="s", modes=ST, reduced=200.0,
                                     auto="until the relative SE of E[H] is target_rse")
     seed: Any = option(None, "random seed: the same seed gives the same numbers", "custom",
-                       check=S.check_seed, allowed="integer in [0, 2⁶³ − 1]",
+                       check=S.check_seed, allowed="integer in [0, 2⁶³ − 1]", modes=ALL,
                        auto="fresh entropy, recorded in the result")
     quantities: tuple = option(QUANTITIES, "histograms to accumulate", "custom",
                                check=S.check_quantities, allowed=f"names from {ALL_QUANTITIES}",
@@ -64,10 +69,18 @@ class Options(_Options):
                                       hi=10 ** 9, modes=ST, auto="about T0/4")
     max_impacts: int = option(64, "impacts handled in one free-flight sub-step", "int",
                               lo=1, hi=10 ** 6)
-    progress: bool | None = option(None, "a progress line on stderr", "bool",
+    progress: bool | None = option(None, "a progress line on stderr", "bool", modes=ALL,
                                    scene="cli --quiet", auto="when stderr is a terminal")
     threads: int | None = option(None, "worker threads (the result does not depend on it)",
-                                 "int", lo=1, hi=1024, auto="numba's thread count")
+                                 "int", lo=1, hi=1024, modes=ALL, auto="numba's thread count")
+    t_max: float | None = option(None, "horizon of the paths: those still inside then are "
+                                 "censored (the mean is a lower bound)", "float", lo=0.0,
+                                 lo_open=True, unit="s", modes=FP,
+                                 auto="continued until every path has exited (at most 500 "
+                                      "relaxation times)")
+    bridge: bool = option(True, "detect crossings between step ends by the Brownian-bridge "
+                          "probability (false: step ends only, biased late)", "bool",
+                          modes=FP)
 
     # -- rules joining options ----------------------------------------------------
     def resolved(self, system: VibroImpactSystem, mode: str) -> dict[str, Any]:
@@ -88,6 +101,10 @@ class Options(_Options):
 
         def bad(name: str, allowed: str, value: Any, why: str = "") -> InputError:
             return invalid(where, name, allowed, value, why)
+
+        if mode == "first_passage":
+            self._validate_passage(system, bad)
+            return
 
         if "impacts" in self.quantities and (mode != "stationary" or not system.walls):
             raise bad("quantities", "names from " + str(QUANTITIES) + (
@@ -117,6 +134,16 @@ class Options(_Options):
                     raise bad(name, f">= one sampling interval sample_every*dt = {t_min:.6g}",
                               val)
 
+    def _validate_passage(self, system: VibroImpactSystem, bad: Any) -> None:
+        """First passage: dt within the stability limit, t_max at least one step."""
+        dt = self.resolved(system, "first_passage")["dt"]
+        limit = S.dt_limit(system)
+        if dt > limit:
+            raise bad("dt", f"in (0, {limit:.6g}]", dt, "1/ω_max: beyond it the explicit "
+                      "splitting loses stability")
+        if self.t_max is not None and self.t_max < dt:
+            raise bad("t_max", f"at least one step dt = {dt:.6g}", self.t_max)
+
     @classmethod
     def prepare(cls, system: VibroImpactSystem, mode: str, values: dict[str, Any], **kw: Any):
         """:meth:`fpk_vibro.options.Options.prepare`; a default step whose run is beyond
@@ -142,6 +169,15 @@ class Options(_Options):
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
         """Memory, path-steps and seconds (constants: docs/costs.md)."""
         r = self.resolved(system, mode)
+        if mode == "first_passage":
+            # paths run to t_max, or (adaptive) 10 relaxation times and then only the
+            # survivors: counted as the first round
+            t = self.t_max if self.t_max is not None else FP_FIRST / r["lam"]
+            path_steps = self.n_paths * math.ceil(t / r["dt"])
+            seconds = 1.0 + path_steps * _step_weight(system, r["dt"], 0) / \
+                (PATH_STEPS_PER_S * min(self.threads or 2, 2))
+            return Cost(150e6 + 64.0 * self.n_paths, float(path_steps), "path-steps",
+                        seconds, "n_paths" if self.t_max is None else "t_max")
         bins = S.check_bins("bins", self.bins, None)
         n_hist = sum(S.bin_count(bins[q]) for q in ("energy", "x", "y") if q in self.quantities)
         if "joint" in self.quantities:
