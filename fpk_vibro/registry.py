@@ -14,7 +14,8 @@ model ``features`` it handles (:data:`FEATURES`), whether its results are sample
 - ``solver(mode)`` → the function ``f(system, **keywords)`` of that mode; transient
   solvers take ``initial=`` and ``times=``, first-passage solvers ``energy=``,
   ``start=``, ``times=``; each returns a :class:`fpk_vibro.solution.Solution` (a list
-  of them for a transient);
+  of them for a transient) whose ``error_estimate()`` says how far off it is
+  (:meth:`fpk_vibro.solution.Solution.error_estimate`);
 - ``options()`` → its :class:`fpk_vibro.options.Options` subclass (the declared
   numerical keywords, budget and scene table: the method's table in a scene); leave
   ``options`` None for a method without numerical options;
@@ -46,6 +47,7 @@ from typing import Any, Callable
 
 from ._checks import InputError
 from .model import VibroImpactSystem
+from .references import provide
 
 __all__ = ["Method", "FEATURES", "MODES", "QUANTITIES", "features_of", "methods", "register",
            "unregister", "capability_table"]
@@ -197,6 +199,13 @@ def _exact_solver(mode: str):
     from .exact import gibbs
     return lambda system, **_: gibbs(system)
 
+
+def _fem_reference(system: VibroImpactSystem) -> Any:
+    """The FE density other methods are checked against (averaging's model error)."""
+    return _fem_solver("stationary")(system)
+
+
+provide("fem", _fem_reference)
 
 _ALL = tuple(FEATURES)
 for _m in (

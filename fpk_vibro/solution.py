@@ -127,6 +127,15 @@ class Solution(abc.ABC):
         ``P_impact`` is absent when the system has no barrier.
         """
 
+    def error_estimate(self) -> dict[str, Any]:
+        """Estimated errors of this answer: ``E_H``, ``E_x2``, ``E_y2``, ``P_impact``
+        (relative; P_impact absolute below 1e-3), ``L1`` where the method can, and
+        ``assumes`` (what the estimate rests on).  Every method's stationary solution
+        gives it (FE: discretisation; Monte Carlo: statistics and time-step bias;
+        averaging: its model error; exact: zero)."""
+        raise NotImplementedError(f"{type(self).__name__} ({self.kind or 'this kind'}) has "
+                                  "no error estimate yet")
+
     def impacts(self) -> dict[str, dict[str, float]]:
         """Per wall ("left"/"right"): ``rate`` (impacts per unit time), ``mean_speed``
         and ``mean_square_speed`` just before impact, and ``energy_rate`` (energy the

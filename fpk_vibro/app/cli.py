@@ -163,7 +163,8 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def _print_summary(doc: dict) -> None:
     keys = ("E_H", "E_x2", "E_y2", "P_impact")
-    print(f"  {'point':<24s} {'method':<11s} {'time s':>7s} " + " ".join(f"{k:>18s}" for k in keys))
+    print(f"  {'point':<24s} {'method':<11s} {'time s':>7s} " + " ".join(f"{k:>18s}" for k in keys)
+          + f" {'error (est.)':>12s}")
     for p in doc["points"]:
         label = ", ".join(f"{k}={v:g}" for k, v in p["parameters"].items()) or "-"
         if "error" in p:
@@ -180,7 +181,19 @@ def _print_summary(doc: dict) -> None:
             # a method a signal cut short: its numbers are from the part it finished
             flag = "  PARTIAL (interrupted)" if e.get("partial") or rec.get("partial") else ""
             print(f"  {label:<24s} {method:<11s} {e['wall_time_s']:7.2f} " +
-                  " ".join(f"{c:>18s}" for c in cells) + flag)
+                  " ".join(f"{c:>18s}" for c in cells) + f" {_error_cell(e):>12s}" + flag)
+
+
+def _error_cell(entry: dict) -> str:
+    """The largest relative figure of a method's error estimate ("-" where none;
+    "unbounded" where the estimate says no bound follows)."""
+    est = entry.get("error_estimate")
+    if not est:
+        return "-"
+    vals = [est[k] for k in ("E_H", "E_x2", "E_y2", "P_impact") if k in est]
+    if any(v is None for v in vals):
+        return "unbounded"
+    return f"{max(vals):.2g}" if vals else "-"
 
 
 def cmd_study(args: argparse.Namespace) -> int:

@@ -57,6 +57,41 @@ def _partial(sol: Any) -> bool:
     return bool(sol.partial)
 
 
+#: The figures of an error estimate results.json keeps (relative; L1 absolute).
+ESTIMATE_KEYS = ("E_H", "E_x2", "E_y2", "P_impact", "L1")
+#: Averaging's estimated model error above which a run warns (one line per point).
+AVERAGING_WARN = 0.01
+
+
+def _estimate_record(method: str, sol: Any, solutions: dict[str, Any]) -> dict[str, Any]:
+    """``error_estimate`` (every figure, None where unbounded) and, for averaging
+    beyond :data:`AVERAGING_WARN`, a ``warning`` naming its weakest assumption.
+
+    Only what the scene computes: averaging's model error needs an FE density of the
+    same system, so it is given where the scene runs fem too (and is absent, not
+    computed behind the scene's back, otherwise)."""
+    import math
+    try:
+        if hasattr(sol, "validity"):
+            if "fem" not in solutions:
+                return {}
+            est = sol.error_estimate(reference=solutions["fem"])
+        else:
+            est = sol.error_estimate()
+    except NotImplementedError:
+        return {}
+    rec = {k: (float(est[k]) if math.isfinite(float(est[k])) else None)
+           for k in ESTIMATE_KEYS if k in est}
+    rec["assumes"] = est.get("assumes", "")
+    out: dict[str, Any] = {"error_estimate": rec}
+    worst = max((float(est[k]) for k in ESTIMATE_KEYS[:4] if k in est), default=0.0)
+    if hasattr(sol, "validity") and worst > AVERAGING_WARN:
+        out["warning"] = (f"{method}: estimated model error {worst:.2g} > "
+                          f"{AVERAGING_WARN:g} (its weakest assumption: "
+                          f"{sol.validity()['weakest']})")
+    return out
+
+
 def _moments_record(sol: Any) -> dict[str, Any]:
     rec: dict[str, Any] = {"moments": sol.moments()}
     if hasattr(sol, "moments_se"):
@@ -145,6 +180,9 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         record["methods"][method] = entry
         if record["status"] == "interrupted":
             break
+    if not scene.transient and record["status"] == "done":
+        for method, sol in solutions.items():
+            record["methods"][method].update(_estimate_record(method, sol, solutions))
     if token is not None and not holds(out_dir, token):
         raise RuntimeError("the run was stopped; this point's result is discarded")
     arrays: dict[str, np.ndarray] = {}
@@ -322,4 +360,7 @@ def _report(record: dict[str, Any], total: int, log: Callable[[str], None],
     else:
         times = ", ".join(f"{m} {e['wall_time_s']:.2f} s" for m, e in record["methods"].items())
         log(f"  point {i + 1}/{total} ({params}) {record.get('status', 'done')}: {times}")
+        for e in record["methods"].values():
+            if e.get("warning"):
+                log(f"  point {i + 1}/{total} ({params}) warning: {e['warning']}")
     return record

@@ -60,6 +60,37 @@ class AveragedSolution(Solution):
         self.Z, self.H_end, self.f_end = Z, H_end, f_end
         self._moments = moments
         self._mean_x: float | None = None
+        self._estimate: dict[str, Any] | None = None
+        #: What the solve did and, once asked for, the model error
+        #: (``info["error_estimate"]``, the largest relative figure).
+        self.info: dict[str, Any] = {"n_theta": n_theta, "n_panel": n_panel,
+                                     "phi_cut": phi_cut}
+
+    # -- how far off it is ----------------------------------------------------------
+    def error_estimate(self, reference: Any = None) -> dict[str, Any]:
+        """The model error of averaging, by a finite-element check of the same system
+        (:mod:`fpk_vibro.averaging.validity`; one FE solve on the first call, unless
+        ``reference``, a FEMSolution of the same system, is given).
+
+        Returns
+        -------
+        dict
+            ``E_H``, ``E_x2``, ``E_y2`` (and ``P_impact`` with walls): relative;
+            ``L1``: ∫|p − p_FE| plus FE's own; ``assumes``, ``reference``, ``seconds``.
+        """
+        if self._estimate is None:
+            from .validity import JUDGED, model_error
+            self._estimate = model_error(self, reference)
+            self.info["error_estimate"] = max(
+                float(self._estimate[k]) for k in JUDGED if k in self._estimate)
+        return dict(self._estimate)
+
+    def validity(self) -> dict[str, Any]:
+        """The small parameters averaging assumes small, at the mean energy, with a
+        verdict in plain words (:func:`fpk_vibro.averaging.validity.indicators`)."""
+        from .validity import indicators, verdict, weakest
+        ind = indicators(self)
+        return {**ind, "verdict": verdict(ind), "weakest": weakest(ind)}
 
     # -- Φ and its panel structure ------------------------------------------------
     def _maps(self) -> list[tuple[Regime, Any, Any, bool]]:

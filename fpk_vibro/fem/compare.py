@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from ..quadrature import gauss_grid
+
 __all__ = ["KEYS", "JUDGED", "worst", "difference", "l1_difference"]
 
 KEYS = ("L1", "E_H", "E_x2", "E_y2", "P_impact")
@@ -27,12 +29,7 @@ def worst(est: dict[str, Any]) -> float:
     return max(float(est[k]) for k in JUDGED if k in est)
 
 
-def _gauss_grid(nodes: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    t, w = np.polynomial.legendre.leggauss(n)
-    a, b = nodes[:-1, None], nodes[1:, None]
-    pts = 0.5 * (a + b) + 0.5 * (b - a) * t[None, :]
-    wts = 0.5 * (b - a) * w[None, :]
-    return pts.ravel(), wts.ravel()
+_gauss_grid = gauss_grid          # (the name the estimate's tests import)
 
 
 def _matrix(basis, pts: np.ndarray):

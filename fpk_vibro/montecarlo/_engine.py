@@ -217,6 +217,9 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     return _reduce(system, hist, mom, imp, xext, dt, meta, wimp)
 
 
+MonteCarloSolution.rerun = staticmethod(stationary)
+
+
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
               n_paths: int = 4096, dt: float | None = None,
               seed: int | np.random.SeedSequence | None = None,

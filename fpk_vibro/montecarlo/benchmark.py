@@ -39,7 +39,7 @@ from .solution import QUANTITIES
 
 WALL_SNIPPET = """
 import time; t0 = time.perf_counter()
-from fpk_vibro import VibroImpactSystem
+from ..model import VibroImpactSystem
 from fpk_vibro.montecarlo import stationary
 sol = stationary(VibroImpactSystem.paper(r=0.92), seed=2024, target_rse={rse!r})
 m, se = sol.moments()["E_H"], sol.moments_se()["E_H"]

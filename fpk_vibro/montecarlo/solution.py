@@ -80,6 +80,9 @@ class MonteCarloSolution(Solution):
     """
 
     kind = "montecarlo"
+    #: The stationary solver, for the estimate's second run; the engine sets it
+    #: (fpk_vibro.montecarlo._engine), which imports this module, not the reverse.
+    rerun: Any = None
 
     def __init__(self, system: VibroImpactSystem, meta: dict[str, Any],
                  arrays: dict[str, np.ndarray]) -> None:
@@ -190,6 +193,14 @@ class MonteCarloSolution(Solution):
     def moments_se(self) -> dict[str, float]:
         """Standard errors of :meth:`moments` (from independent batches of paths)."""
         return self._moment_dict("moments_se")
+
+    def error_estimate(self) -> dict[str, Any]:
+        """Statistics and time-step bias together: 2 SE plus the bias from a second run
+        at 2 dt (:mod:`fpk_vibro.montecarlo.estimate`; computed on the first call)."""
+        if getattr(self, "_estimate", None) is None:
+            from .estimate import error_estimate
+            self._estimate = error_estimate(self)
+        return dict(self._estimate)
 
     def mean_x(self) -> float:
         """E[x], the average of the sampled x (not of the histogram); from the

@@ -1,0 +1,36 @@
+"""Reference solutions one method asks of another, without importing it.
+
+Averaging's model error is measured against the finite-element density of the same
+system (:mod:`fpk_vibro.averaging.validity`), while the FE first passage already
+builds on averaging: a direct import would close a circle.  The registry
+(:mod:`fpk_vibro.registry`, above every method) provides the solvers here when the
+package loads; a method asks by name.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+__all__ = ["provide", "reference"]
+
+_PROVIDERS: dict[str, Callable[[Any], Any]] = {}
+
+
+def provide(name: str, solve: Callable[[Any], Any]) -> None:
+    """Make ``solve(system)`` the reference solution called ``name``."""
+    _PROVIDERS[name] = solve
+
+
+def reference(name: str, system: Any) -> Any:
+    """The reference solution ``name`` of ``system``.
+
+    Raises
+    ------
+    LookupError
+        If no solver of that name was provided.
+    """
+    try:
+        solve = _PROVIDERS[name]
+    except KeyError:
+        raise LookupError(f"no {name!r} reference solver is provided (known: "
+                          f"{sorted(_PROVIDERS)})") from None
+    return solve(system)
