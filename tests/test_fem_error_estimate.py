@@ -196,3 +196,14 @@ def test_transient_rtol_refuses_mesh_options_naming_them():
     sol = fem.transient(PAPER, initial=init, times=[0.5], nx=8, progress=False)[0]
     with pytest.raises(ValueError, match="rtol"):
         sol.error_estimate()
+
+
+def test_a_richer_level_beyond_the_budget_is_refused_in_one_line(monkeypatch):
+    """The estimate's richer solve (2-4x the DOFs) is checked against the budget
+    first: one line naming it, not an out-of-memory crash."""
+    import fpk_vibro.budget as budget
+    sol = fem.stationary(PAPER, nx=16)
+    monkeypatch.setattr(budget, "available_memory", lambda: 1e6)
+    with pytest.raises(InputError) as exc:
+        sol.error_estimate()
+    assert "fem.error_estimate" in str(exc.value) and "\n" not in str(exc.value)

@@ -80,6 +80,8 @@ def _estimate_record(method: str, sol: Any, solutions: dict[str, Any]) -> dict[s
             est = sol.error_estimate()
     except NotImplementedError:
         return {}
+    except InputError as exc:        # e.g. the richer FE level beyond the budget
+        return {"error_estimate": {"not_computed": str(exc)}}
     rec = {k: (float(est[k]) if math.isfinite(float(est[k])) else None)
            for k in ESTIMATE_KEYS if k in est}
     rec["assumes"] = est.get("assumes", "")

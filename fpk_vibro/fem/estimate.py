@@ -150,7 +150,10 @@ def error_estimate(sol, *, richer=None) -> dict[str, Any]:
     from .discretisation import build
     t0 = time.perf_counter()
     if richer is None:
+        from ..budget import enforce
         opts = richer_options(_options_of(sol), sol)
+        # the richer level is 2-4x the DOFs: refused in one line where it would not fit
+        enforce(opts.estimate(sol.system, "stationary"), "fem.error_estimate")
         richer = build(sol.system, opts).stationary(opts.solver)
     est = _combine(difference(sol, richer), truncation(sol), sol)
     change = sol.info.get("correction")

@@ -47,7 +47,8 @@ def error_estimate(sol) -> dict[str, Any]:
         return out
     run = dict(n_paths=int(sol.n_paths), t_burn=float(sol.t_burn),
                t_sample=float(sol.t_sample), n_batches=int(sol.n_batches),
-               seed=int(sol.seed_entropy), quantities=("x",), progress=False)
+               seed=None if sol.seed_entropy is None else int(sol.seed_entropy),
+               quantities=("x",), progress=False)
     try:
         other = stationary(sol.system, dt=2.0 * sol.dt, **run)
         factor, step = -1.0 / 3.0, "2 dt"
