@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from .keys import ESTIMATE_KEYS
+
 __all__ = ["solution_dataset", "run_dataset", "moments_frame", "NETCDF_ENGINE"]
 
 #: netCDF engine of xarray used for every file written here.
@@ -92,6 +94,9 @@ def solution_dataset(sol, grids: dict[str, Any] | None = None):
         attrs.update({f"info_{k}": _attr(v) for k, v in info.items()
                       if v is not None and isinstance(v, (bool, int, float, str, np.integer,
                                                           np.floating))})
+    est = getattr(sol, "_estimate", None)     # an estimate already made (not made here)
+    if isinstance(est, dict):
+        attrs.update({f"error_estimate_{k}": float(est[k]) for k in ESTIMATE_KEYS if k in est})
     for attr in ("seed_entropy", "n_paths", "dt"):
         v = getattr(sol, attr, None)
         if v is not None and not callable(v):
@@ -187,6 +192,16 @@ def run_dataset(out_dir: str | Path):
                             arr[(i, j, k) if transient else (i, j)] = v
             if suffix == "" or np.isfinite(arr).any():
                 data[key + suffix] = (dims, arr)
+    if not transient:       # the estimates of the run (results.json), NaN where none
+        for key in ESTIMATE_KEYS:
+            arr = np.full(shape, np.nan)
+            for i, p in enumerate(points):
+                for j, m in enumerate(methods):
+                    est = (p.get("methods", {}).get(m) or {}).get("error_estimate") or {}
+                    if key in est:      # None in JSON: no bound follows
+                        arr[i, j] = np.inf if est[key] is None else est[key]
+            if not np.isnan(arr).all():
+                data[f"{key}_error_estimate"] = (dims, arr)
     params = sorted({k for p in points for k in p.get("parameters", {})})
     coords: dict[str, Any] = {"point": np.arange(len(points)), "method": methods,
                               "status": ("point", [p.get("status", "") for p in points])}

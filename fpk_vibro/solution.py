@@ -31,13 +31,13 @@ import numpy as np
 
 from ._checks import InputError, check_points, invalid
 from .io import atomic_write
+from .keys import ESTIMATE_KEYS, MOMENT_KEYS
 from .model import VibroImpactSystem
 from .solution_file import (FORMAT_NAME, FORMAT_VERSION, KIND_MODULES, RESERVED, Corrupt,
                             Rule, Stored, open_archive, read)
 
-__all__ = ["Solution", "MOMENT_KEYS", "KIND_MODULES", "Rule", "Stored"]
-
-MOMENT_KEYS = ("E_H", "E_x2", "E_y2", "E_x4", "E_y4", "P_impact")
+__all__ = ["Solution", "MOMENT_KEYS", "ESTIMATE_KEYS", "KIND_MODULES", "Rule", "Stored",
+           "TransientResult"]
 
 #: The density methods and their arguments, in order: every definition of one of them
 #: in a subclass gets the one argument check (:func:`_checked`).

@@ -111,3 +111,36 @@ def test_exact_and_transient_estimates_say_what_they_are():
     est = runs[-1].error_estimate()
     assert np.isnan(est["bias"]) and "not estimated" in est["assumes"]
     assert all(est[k] > 0 for k in ("E_H", "E_x2", "E_y2"))
+
+
+def test_a_run_writes_and_prints_the_estimates(tmp_path):
+    """results.json and the run's Dataset carry error_estimate per method and point;
+    the summary prints an 'error (est.)' column; averaging's estimate comes from the
+    scene's own FE density."""
+    import json
+
+    pytest.importorskip("xarray")
+    from fpk_vibro.app.cli import _print_summary
+    from fpk_vibro.app.runner import run_scene
+    from fpk_vibro.app.scenes import load_scene
+    from fpk_vibro.labelled import run_dataset
+    path = tmp_path / "s.toml"
+    path.write_text('[system]\na = 1.0\nb = 0.2\nc = 0.025\nD1 = 0.01\nD2 = 0.01\n'
+                    '[barriers]\ndelta = 0.6\nr = 0.92\n[study]\nname = "e"\n'
+                    'methods = ["averaging", "fem"]\nquantities = ["moments"]\n'
+                    '[output]\nformats = ["json"]\n')
+    doc = run_scene(load_scene(path), out=tmp_path / "o", log=lambda *_: None)
+    rec = json.loads((tmp_path / "o" / "results.json").read_text())["points"][0]["methods"]
+    assert 0.01 < rec["averaging"]["error_estimate"]["E_y2"] < 0.2      # 4 % model error
+    assert rec["fem"]["error_estimate"]["E_H"] < 1e-3
+    assert "FE" in rec["averaging"]["error_estimate"]["assumes"] or \
+        "finite-element" in rec["averaging"]["error_estimate"]["assumes"]
+    ds = run_dataset(tmp_path / "o")
+    by_method = dict(zip(list(ds["method"].values), ds["E_H_error_estimate"].values[0]))
+    assert by_method["fem"] < 1e-3 and by_method["averaging"] > 1e-2
+    import contextlib
+    import io
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        _print_summary(doc)
+    assert "error (est.)" in buf.getvalue()

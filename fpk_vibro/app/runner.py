@@ -26,6 +26,7 @@ from ..model import VibroImpactSystem
 from ..progress import Progress
 from ..registry import methods
 from ..scales import density_grids
+from ..keys import ESTIMATE_KEYS
 from .execution import SchedulerLost, dask_client, execute
 from .interrupt import Interrupted, received, signals_handled
 from .outdir import OutputDir, holds, point_records
@@ -57,8 +58,6 @@ def _partial(sol: Any) -> bool:
     return bool(sol.partial)
 
 
-#: The figures of an error estimate results.json keeps (relative; L1 absolute).
-ESTIMATE_KEYS = ("E_H", "E_x2", "E_y2", "P_impact", "L1")
 #: Averaging's estimated model error above which a run warns (one line per point).
 AVERAGING_WARN = 0.01
 
