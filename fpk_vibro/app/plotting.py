@@ -169,14 +169,23 @@ def plot_density(solutions: dict, quantity: str, grid: np.ndarray, *, ax=None,
             mid = 0.5 * (edges[1:] + edges[:-1])
             keep = (mid >= grid[0]) & (mid <= grid[-1]) & (dens > 0 if log else True)
             base = getattr(ref, pdf)(mid[keep]) if ref is not None else 0.0
-            ax.errorbar(mid[keep], dens[keep] - base, yerr=se[keep], fmt="o", ms=2.5,
-                        mfc="none", color="C2", capsize=1.2, lw=0.7, label=name + " (±1 SE)")
+            bias = _estimated(sol, "bias")
+            yerr = se[keep] + bias * dens[keep]
+            ax.errorbar(mid[keep], dens[keep] - base, yerr=yerr, fmt="o", ms=2.5,
+                        mfc="none", color="C2", capsize=1.2, lw=0.7,
+                        label=name + (" (±1 SE + bias)" if bias else " (±1 SE)"))
         elif method != difference_from or ref is None:
             base = getattr(ref, pdf)(grid) if ref is not None else 0.0
-            vals = getattr(sol, pdf)(grid) - base
+            dens = getattr(sol, pdf)(grid)
+            vals = dens - base
             if log:
                 vals = np.where(vals > 0, vals, np.nan)
-            ax.plot(grid, vals, label=name, **_STYLE.get(method, {}))
+            line, = ax.plot(grid, vals, label=name, **_STYLE.get(method, {}))
+            err = _estimated(sol, "error")
+            if err > 0 and np.isfinite(err):       # the estimate as a relative band
+                ax.fill_between(grid, vals - err * dens, vals + err * dens, lw=0,
+                                color=line.get_color(), alpha=0.2,
+                                label=f"{name}: estimated error {err:.1g}")
     if ref is not None:
         ax.axhline(0.0, color="0.3", lw=0.8)
     if log:
@@ -194,6 +203,21 @@ def plot_density(solutions: dict, quantity: str, grid: np.ndarray, *, ax=None,
     ax.set_xlabel(xl)
     ax.set_ylabel(yl if ref is None else f"difference from {METHOD_NAMES.get(difference_from, difference_from)}")
     return ax
+
+
+def _estimated(sol: Solution, what: str) -> float:
+    """From an error estimate already made (figures never compute one): ``"error"``
+    the largest relative moment figure, ``"bias"`` Monte Carlo's largest relative
+    time-step bias; 0 where there is none."""
+    est = getattr(sol, "_estimate", None)
+    if not isinstance(est, dict):
+        return 0.0
+    if what == "bias":
+        bias = est.get("bias")
+        return max((abs(v) for v in bias.values()), default=0.0) if isinstance(bias, dict) \
+            else 0.0
+    vals = [float(est[k]) for k in ("E_H", "E_x2", "E_y2", "P_impact") if k in est]
+    return max(vals, default=0.0)
 
 
 def plot_joint(solutions: dict, gx: np.ndarray, gy: np.ndarray, *, axes=None, vmax=None):

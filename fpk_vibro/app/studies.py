@@ -60,7 +60,9 @@ def _truth(system: VibroImpactSystem, quick: bool, log) -> dict[str, Any]:
 
 
 def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str, Any]:
-    """Work–precision table of every method of the scene's (first) system."""
+    """Work–precision table of every method of the scene's (first) system, with each
+    answer's own error estimate beside its true error (``effectivity`` = true /
+    estimate; ≤ 1 where the estimate is honest)."""
     from .. import averaging, fem, montecarlo
     if scene.mode == "transient":
         return transient_convergence_study(scene, quick=quick, log=log)
@@ -69,10 +71,18 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
     T = truth["moments"]
     rows: list[dict[str, Any]] = []
 
-    def add(method: str, setting: str, moments: dict[str, float], seconds: float, **extra):
+    def add(method: str, setting: str, moments: dict[str, float], seconds: float,
+            sol: Any = None, **extra):
         rows.append({"method": method, "setting": setting, "error": _err(moments, T),
                      "seconds": seconds, **extra})
-        log(f"  {method:<11s} {setting:<26s} error {rows[-1]['error']:.2e}  {seconds:7.2f} s")
+        note = ""
+        if sol is not None:     # effectivity: the true error against the estimate
+            est = sol.error_estimate()
+            e = max(float(est[k]) for k in KEYS)
+            rows[-1].update(estimate=e, effectivity=rows[-1]["error"] / e if e > 0 else None)
+            note = f"  estimate {e:.2e}"
+        log(f"  {method:<11s} {setting:<26s} error {rows[-1]['error']:.2e}{note}  "
+            f"{seconds:7.2f} s")
 
     methods = [m for m in scene.methods if m != "exact"]
     if "fem" in methods:
@@ -86,7 +96,7 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
             for nx in levels:
                 sol, dt = _timed(lambda: fem.stationary(system, degree=degree, nx=nx, **kw))
                 add(label, f"Q{degree} nx={nx} ({sol.dofs.size} dofs)", sol.moments(), dt,
-                    degree=degree, nx=nx, min_density=sol.min_density / sol.dofs.max(),
+                    sol=sol, degree=degree, nx=nx, min_density=sol.min_density / sol.dofs.max(),
                     discretisation=sol.info.get("discretisation", ""))
     if "montecarlo" in methods:
         montecarlo.stationary(system, n_paths=64, t_sample=10.0, seed=0, progress=False)
@@ -94,7 +104,7 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
         def mc(label: str, **kw) -> None:
             sol, dt = _timed(lambda: montecarlo.stationary(
                 system, seed=1, quantities=("energy",), progress=False, **kw))
-            add("montecarlo", f"{label} (dt={sol.dt:.3g})", sol.moments(), dt,
+            add("montecarlo", f"{label} (dt={sol.dt:.3g})", sol.moments(), dt, sol=sol,
                 se=_err({k: sol.moments()[k] + sol.moments_se()[k] for k in KEYS}, sol.moments()))
         # sampled time (paths × time) at the default dt ...
         for rse in ((1e-2, 3e-3) if quick else (1e-2, 3e-3, 1e-3, 3e-4)):
@@ -111,7 +121,7 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
         ref = averaging.stationary(system, n_theta=96, n_panel=48).moments()
         for nt, npan in ((6, 4), (8, 6), (12, 8), (24, 16), (48, 24)):
             sol, dt = _timed(lambda: averaging.stationary(system, n_theta=nt, n_panel=npan))
-            add("averaging", f"n_theta={nt} n_panel={npan}", sol.moments(), dt)
+            add("averaging", f"n_theta={nt} n_panel={npan}", sol.moments(), dt, sol=sol)
             # its own convergence: against the finest quadrature, not the truth
             rows.append({"method": "averaging (quadrature)", "setting": rows[-1]["setting"],
                          "error": _err(sol.moments(), ref), "seconds": dt})
@@ -230,8 +240,11 @@ def averaging_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str
         ma, mf = a.moments(), f.moments()
         H = np.linspace(0.0, 12 * mf["E_H"], 2401)
         l1 = float(np.trapezoid(np.abs(a.pdf_energy(H) - f.pdf_energy(H)), H))
+        est = a.error_estimate(reference=f)         # the model error beside the measured
         cell = {"r": r, "c": c, "noise": q, "L1_pH": l1,
-                **{f"rel_{k}": ma[k] / mf[k] - 1 for k in KEYS}}
+                **{f"rel_{k}": ma[k] / mf[k] - 1 for k in KEYS},
+                **{f"est_{k}": est[k] for k in KEYS if k in est},
+                "weakest": a.validity()["weakest"]}
         # reliability: mean first-passage time from rest to H_c = 3 E[H] (FE truth)
         Hc = FIRST_PASSAGE_LEVEL * mf["E_H"]
         tf = fem.first_passage(s, energy=Hc, nx=nx // 2).mean
@@ -239,7 +252,7 @@ def averaging_study(scene: Scene, *, quick: bool = False, log=print) -> dict[str
         cell.update(H_c=Hc, tau_fem=tf, tau_averaging=ta, rel_tau=ta / tf - 1)
         cells.append(cell)
         log(f"  noise×{q:<3g} c={c:<6g} r={r:<5g} L1 p(H) {l1:.3f}  E[H] {cell['rel_E_H']:+.3%}"
-            f"  τ {cell['rel_tau']:+.3%}")
+            f" (estimated {cell['est_E_H']:.2%})  τ {cell['rel_tau']:+.3%}")
     return {"system": base.to_dict(), "r": list(rs), "c": list(cs), "noise": list(noise),
             "cells": cells}
 
