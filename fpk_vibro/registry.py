@@ -156,8 +156,7 @@ def methods() -> dict[str, Method]:
 # -- the built-in methods -------------------------------------------------------------
 def _averaging_solver(mode: str):
     from . import averaging
-    return {"stationary": averaging.stationary, "transient": averaging.transient,
-            "first_passage": averaging.first_passage}[mode]
+    return getattr(averaging, mode)          # its stationary, transient, first_passage
 
 
 def _averaging_options():
@@ -167,8 +166,7 @@ def _averaging_options():
 
 def _fem_solver(mode: str):
     from . import fem
-    return {"stationary": fem.stationary, "transient": fem.transient,
-            "first_passage": fem.first_passage}[mode]
+    return getattr(fem, mode)          # its stationary, transient, first_passage
 
 
 def _fem_options():
@@ -186,8 +184,7 @@ def _fem_check(system: VibroImpactSystem, mode: str, quantities: tuple) -> str |
 
 def _montecarlo_solver(mode: str):
     from . import montecarlo
-    return {"stationary": montecarlo.stationary, "transient": montecarlo.transient,
-            "first_passage": montecarlo.first_passage}[mode]
+    return getattr(montecarlo, mode)          # its stationary, transient, first_passage
 
 
 def _montecarlo_options():

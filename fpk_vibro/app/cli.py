@@ -190,7 +190,8 @@ def _error_cell(entry: dict) -> str:
     est = entry.get("error_estimate")
     if not est:
         return "-"
-    vals = [est[k] for k in ("E_H", "E_x2", "E_y2", "P_impact") if k in est]
+    from ..keys import JUDGED
+    vals = [est[k] for k in JUDGED if k in est]
     if any(v is None for v in vals):
         return "unbounded"
     return f"{max(vals):.2g}" if vals else "-"

@@ -216,7 +216,8 @@ def _estimated(sol: Solution, what: str) -> float:
         bias = est.get("bias")
         return max((abs(v) for v in bias.values()), default=0.0) if isinstance(bias, dict) \
             else 0.0
-    vals = [float(est[k]) for k in ("E_H", "E_x2", "E_y2", "P_impact") if k in est]
+    from ..keys import JUDGED
+    vals = [float(est[k]) for k in JUDGED if k in est]
     return max(vals, default=0.0)
 
 

@@ -26,7 +26,7 @@ from ..model import VibroImpactSystem
 from ..progress import Progress
 from ..registry import methods
 from ..scales import density_grids
-from ..keys import ESTIMATE_KEYS
+from ..keys import ESTIMATE_KEYS, JUDGED
 from .execution import SchedulerLost, dask_client, execute
 from .interrupt import Interrupted, received, signals_handled
 from .outdir import OutputDir, holds, point_records
@@ -85,7 +85,7 @@ def _estimate_record(method: str, sol: Any, solutions: dict[str, Any]) -> dict[s
            for k in ESTIMATE_KEYS if k in est}
     rec["assumes"] = est.get("assumes", "")
     out: dict[str, Any] = {"error_estimate": rec}
-    worst = max((float(est[k]) for k in ESTIMATE_KEYS[:4] if k in est), default=0.0)
+    worst = max((float(est[k]) for k in JUDGED if k in est), default=0.0)
     if hasattr(sol, "validity") and worst > AVERAGING_WARN:
         out["warning"] = (f"{method}: estimated model error {worst:.2g} > "
                           f"{AVERAGING_WARN:g} (its weakest assumption: "

@@ -41,17 +41,14 @@ from typing import Any
 
 import numpy as np
 
+from ..keys import JUDGED, moment_scale
+
 __all__ = ["model_error", "indicators", "verdict", "weakest", "LIMIT", "JUDGED"]
 
 #: An indicator above this is named by the verdict.
 LIMIT = 0.3
-JUDGED = ("E_H", "E_x2", "E_y2", "P_impact")
 ASSUMES = ("the difference to the finite-element density of the same system (rtol 1e-4, "
            "best effort) plus FE's own estimate; assumes the FE answer is resolved")
-
-
-def _scale(key: str, value: float) -> float:
-    return max(abs(value), 1e-3) if key == "P_impact" else abs(value)
 
 
 def model_error(sol, reference: Any = None) -> dict[str, Any]:
@@ -71,7 +68,7 @@ def model_error(sol, reference: Any = None) -> dict[str, Any]:
         return out
     fe_est = ref.error_estimate()
     m, r = sol.moments(), ref.moments()
-    out = {k: abs(m[k] - r[k]) / _scale(k, r[k]) + float(fe_est[k]) for k in keys}
+    out = {k: abs(m[k] - r[k]) / moment_scale(k, r[k]) + float(fe_est[k]) for k in keys}
     out["L1"] = _l1(sol, ref) + float(fe_est["L1"])
     out.update(assumes=ASSUMES, reference=f"fem degree {ref.degree}, "
                f"{ref.dofs.size} DOFs (its estimate {max(fe_est[k] for k in keys):.1g})",

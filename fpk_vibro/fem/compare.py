@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..keys import JUDGED, moment_scale
 from ..quadrature import gauss_grid
 
 __all__ = ["KEYS", "JUDGED", "worst", "difference", "l1_difference"]
@@ -22,7 +23,6 @@ KEYS = ("L1", "E_H", "E_x2", "E_y2", "P_impact")
 #: error of the density is reported but not aimed at: near the corners (x_w, 0) of
 #: r < 1 and where D2 makes D(x) kink it converges slowly (measured: 2.5e-4 at Q4,
 #: nx = 64, r = 0.9, D2 = 0.1, while the moments were within 2e-6).
-JUDGED = ("E_H", "E_x2", "E_y2", "P_impact")
 
 
 def worst(est: dict[str, Any]) -> float:
@@ -84,6 +84,6 @@ def difference(a, b) -> dict[str, float]:
     out = {"L1": l1_difference(a, b)}
     ma, mb = _moments(a), _moments(b)
     for k, vb in mb.items():
-        scale = max(abs(vb), 1e-3) if k == "P_impact" else abs(vb)
+        scale = moment_scale(k, vb)
         out[k] = abs(ma[k] - vb) / scale if scale > 0 else abs(ma[k] - vb)
     return out

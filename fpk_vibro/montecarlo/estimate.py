@@ -22,13 +22,14 @@ import math
 import time
 from typing import Any
 
+from ..keys import JUDGED, moment_scale
+
 __all__ = ["error_estimate", "JUDGED"]
 
-JUDGED = ("E_H", "E_x2", "E_y2", "P_impact")
 
 
 def _scale(key: str, value: float) -> float:
-    return max(abs(value), 1e-3) if key == "P_impact" else max(abs(value), 1e-300)
+    return max(moment_scale(key, value), 1e-300)        # (a zero moment: no division)
 
 
 def error_estimate(sol) -> dict[str, Any]:
