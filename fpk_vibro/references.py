@@ -1,8 +1,10 @@
 """Reference solutions one method asks of another, without importing it.
 
 Averaging's model error is measured against the finite-element density of the same
-system (:mod:`fpk_vibro.averaging.validity`), while the FE first passage already
-builds on averaging: a direct import would close a circle.  The registry
+system (``"fem"``, :mod:`fpk_vibro.averaging.validity`) and its transient's against
+the FE transient from the same initial condition (``"fem-transient"``,
+:meth:`fpk_vibro.averaging.EnergyGridSolution.error_estimate`), while the FE first
+passage already builds on averaging: a direct import would close a circle.  The registry
 (:mod:`fpk_vibro.registry`, above every method) provides the solvers here when the
 package loads; a method asks by name.
 """
@@ -12,16 +14,18 @@ from typing import Any, Callable
 
 __all__ = ["provide", "reference"]
 
-_PROVIDERS: dict[str, Callable[[Any], Any]] = {}
+_PROVIDERS: dict[str, Callable[..., Any]] = {}
 
 
-def provide(name: str, solve: Callable[[Any], Any]) -> None:
-    """Make ``solve(system)`` the reference solution called ``name``."""
+def provide(name: str, solve: Callable[..., Any]) -> None:
+    """Make ``solve(system, **options)`` the reference solution called ``name``."""
     _PROVIDERS[name] = solve
 
 
-def reference(name: str, system: Any) -> Any:
-    """The reference solution ``name`` of ``system``.
+def reference(name: str, system: Any, **options: Any) -> Any:
+    """The reference solution ``name`` of ``system`` (``options``: what that solver
+    takes besides the system, e.g. ``initial``, ``times`` and ``rtol`` of
+    ``"fem-transient"``).
 
     Raises
     ------
@@ -33,4 +37,4 @@ def reference(name: str, system: Any) -> Any:
     except KeyError:
         raise LookupError(f"no {name!r} reference solver is provided (known: "
                           f"{sorted(_PROVIDERS)})") from None
-    return solve(system)
+    return solve(system, **options)

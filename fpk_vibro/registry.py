@@ -202,7 +202,15 @@ def _fem_reference(system: VibroImpactSystem) -> Any:
     return _fem_solver("stationary")(system)
 
 
+def _fem_transient_reference(system: VibroImpactSystem, *, initial: Any, times: Any,
+                             rtol: float) -> Any:
+    """The FE transient other methods are checked against (the averaged transient's
+    model error): ``fem.transient(system, initial=..., times=..., rtol=...)``."""
+    return _fem_solver("transient")(system, initial=initial, times=times, rtol=rtol)
+
+
 provide("fem", _fem_reference)
+provide("fem-transient", _fem_transient_reference)
 
 _ALL = tuple(FEATURES)
 for _m in (

@@ -26,6 +26,10 @@ class EnergyGridSolution(Solution):
     half-cells) and is zero outside [faces[0], H_max].  Moments use the midpoint rule
     per cell with the exact orbit averages at the centres; P_impact is exact for the
     cell masses because every wall energy G(x_w) is a face.
+
+    ``error_estimate()`` (one time of :func:`transient`): averaging's model error at
+    that time, by the FE transient of the same system from the same initial condition
+    (:mod:`fpk_vibro.averaging.model_error`).
     """
 
     kind = "averaging_grid"
@@ -36,6 +40,13 @@ class EnergyGridSolution(Solution):
         self.faces = np.asarray(faces, dtype=float)
         self.density = np.asarray(density, dtype=float)
         self.time = time
+        #: What the density is and, once asked for, its model error
+        #: (``info["error_estimate"]``, the largest relative figure).
+        self.info: dict[str, Any] = {"n_cells": int(self.density.size)}
+        self._estimate: dict[str, Any] | None = None
+        #: The FE check shared by the members of one transient (set by it; None for a
+        #: density read from a file, which does not know its initial condition).
+        self._check: Any = None
         self.centres = 0.5 * (self.faces[1:] + self.faces[:-1])
         o = orbit_nodes(system, self.centres)
         self._T = o.period
@@ -51,6 +62,39 @@ class EnergyGridSolution(Solution):
     @property
     def min_density(self) -> float:
         return float(self.density.min())
+
+    # -- how far off it is ----------------------------------------------------------
+    def error_estimate(self, reference: Any = None) -> dict[str, Any]:
+        """The model error of averaging at this time, by the finite-element transient of
+        the same system from the same initial condition
+        (:func:`fpk_vibro.averaging.model_error.transient_model_error`): the first call
+        of any member of one :func:`transient` list solves ``fem.transient(...,
+        rtol=1e-2)`` at all its times, for them all; ``reference``: an FE density at
+        this time (with an estimate, e.g. from ``fem.transient(..., rtol=...)``) used
+        instead, on the first call.
+
+        Returns
+        -------
+        dict
+            ``E_H``, ``E_x2``, ``E_y2`` (and ``P_impact`` with walls): relative (P_impact
+            absolute below 1e-3); ``L1``: ∫|p − p_FE| plus FE's own; ``assumes``,
+            ``reference``, ``seconds``.  Infinite, with the reason in ``reference``,
+            when there is no FE density: a sampler initial condition (FE needs a
+            density), or FE refused (e.g. its rtol not reached within its time limit).
+
+        Raises
+        ------
+        NotImplementedError
+            For a density not made by :func:`transient` (read from a file): its initial
+            condition is unknown.
+        """
+        if self._estimate is None:
+            from ..keys import JUDGED
+            from .model_error import transient_model_error
+            self._estimate = transient_model_error(self, reference)
+            self.info["error_estimate"] = max(
+                float(self._estimate[k]) for k in JUDGED if k in self._estimate)
+        return dict(self._estimate)
 
     # -- densities ----------------------------------------------------------------
     def _interp(self, values: np.ndarray, H: np.ndarray) -> np.ndarray:

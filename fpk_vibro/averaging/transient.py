@@ -29,6 +29,7 @@ from ..solution import TransientResult
 from .coefficients import coefficients
 from .energy_grid import check_coverage, energy_faces, initial_cell_masses
 from .grid_solution import EnergyGridSolution
+from .model_error import TransientCheck
 from .options import Options
 from .stationary import AveragedSolution, solve
 
@@ -72,7 +73,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         point mass) or a sampler ``initial(n, rng)``: the spec shared by every
         transient method (:mod:`fpk_vibro.initial`).
     times : sequence of float
-        Output times (≥ 0, any order; results in the same order).
+        Output times (≥ 0, any order, repeats allowed; results in the same order).
     n_cells : int
         Finite-volume cells in H (second order in 1/n_cells).
     H_max : float, optional
@@ -88,7 +89,9 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     Returns
     -------
     list of EnergyGridSolution
-        Each with ``.time``, ``.mass`` (1 to round-off) and the Solution interface.
+        Each with ``.time``, ``.mass`` (1 to round-off) and the Solution interface;
+        ``error_estimate()`` gives the model error at its time, by one FE transient
+        shared by the list (:mod:`fpk_vibro.averaging.model_error`).
     """
     check_system("averaging.transient", system)
     init = parse_initial(initial, system)
@@ -107,16 +110,20 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     h = np.diff(faces)
     p0 = mass0 / mass0.sum() / h
     A = averaged_operator(system, faces, st)
-    order = np.argsort(t_out)
-    t_sorted = t_out[order]
+    t_sorted, where = np.unique(t_out, return_inverse=True)   # repeats: one output
     t_end = float(t_sorted[-1])
     if t_end > 0:
         P = _integrate(A, p0, h, t_sorted, rtol)
     else:
         P = np.repeat(p0[:, None], t_sorted.size, axis=1)
     out = TransientResult([None] * t_out.size)
-    for j, k in enumerate(order):
+    for k, j in enumerate(np.ravel(where)):
         out[k] = EnergyGridSolution(system, faces=faces, density=P[:, j], time=float(t_sorted[j]))
+    check = TransientCheck(system, init, t_out)      # one FE transient for the list
+    for sol in out:
+        if isinstance(sol, EnergyGridSolution):
+            sol._check = check
+            sol.info.update(n_cells=n_cells, rtol=rtol)
     return out
 
 
