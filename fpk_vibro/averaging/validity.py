@@ -31,7 +31,10 @@ Damping and impacts must be small (≪ 1) where averaging holds; the verdict nam
 those above :data:`LIMIT`.  The noise figure is reported but not judged: at
 equilibrium the energy's spread is of the order of the energy itself whatever the
 regime (measured 0.8 on the paper's case, where averaging is within 0.8 %).  The
-verdict is a reading aid; the number that counts is the model error.
+verdict is a reading aid; the number that counts is the model error.  Without an FE
+check, ``validity()`` adds the calibrated indicator model's estimate
+(:mod:`fpk_vibro.averaging.error_model`: averages over p(H), not values at E[H]) as
+``estimated_error`` and ``estimated_key``, which the verdict quotes.
 """
 from __future__ import annotations
 
@@ -89,14 +92,20 @@ def indicators(sol) -> dict[str, float]:
             "mean_energy": E, "period": T}
 
 
-def verdict(ind: dict[str, float]) -> str:
-    """Plain words: which small parameters are not small."""
+def verdict(ind: dict[str, Any]) -> str:
+    """Plain words: which small parameters are not small, and, where ``ind`` has it
+    (``AveragedSolution.validity()``), the indicator model's estimated model error
+    (``estimated_error`` of key ``estimated_key``, :mod:`.error_model`)."""
+    est = ""
+    if "estimated_error" in ind:
+        est = (f"; estimated model error ~{100 * ind['estimated_error']:.2g} % "
+               f"({ind['estimated_key']}, indicator model)")
     bad = [f"{k} per period {ind[k]:.2g}" for k in ("damping", "impacts") if ind[k] > LIMIT]
     if not bad:
         return (f"quasi-conservative at the mean energy (damping and impacts each take "
-                f"< {LIMIT:g} of the energy per period): averaging applies")
+                f"< {LIMIT:g} of the energy per period): averaging applies" + est)
     return ("not quasi-conservative at the mean energy: " + ", ".join(bad) +
-            f" (> {LIMIT:g}); expect a model error, see error_estimate()")
+            f" (> {LIMIT:g}){est}; expect a model error, see error_estimate()")
 
 
 def weakest(ind: dict[str, float]) -> str:
