@@ -13,6 +13,7 @@ from ..model import VibroImpactSystem
 from . import _kernel as K
 from . import _setup as S
 from ._summary import _check_finite, _ratio, _reduce
+from .estimate import shared_second_run
 from .options import Options
 from ..solution import TransientResult
 from .solution import QUANTITIES, MonteCarloSolution
@@ -253,12 +254,18 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         A list with one :class:`MonteCarloSolution` per time (``time``,
         ``impact_rate`` and per-wall :meth:`~MonteCarloSolution.impacts` over the
         interval ending there); ``partial`` True and
-        fewer entries if interrupted by Ctrl-C.
+        fewer entries if interrupted by Ctrl-C.  Each one's ``error_estimate()``
+        adds the time-step bias from one second transient at 2 dt (dt/2 where 2 dt
+        is refused) with the same initial ensemble and seed, made on the first
+        estimate asked of any time and shared by all (:mod:`.estimate`; none for an
+        interrupted run).
     """
     tarr = parse_times(times, "montecarlo.transient")
     opts, _ = Options.prepare(system, "transient", locals(), times=tarr)
     n_paths, n_batches, dt = opts.n_paths, opts.n_batches, opts.resolved(system, "transient")["dt"]
     ss = S.seed_sequence(opts.seed)
+    family = dict(entropy=ss.entropy, spawn_key=ss.spawn_key, pool_size=ss.pool_size,
+                  n_children_spawned=ss.n_children_spawned)   # the same streams again
     quantities, max_impacts, threads = opts.quantities, opts.max_impacts, opts.threads
     bins = S.check_bins("bins", opts.bins, None)
     progress = opts.progress
@@ -276,10 +283,12 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     out = TransientRun()
     out.times_requested = tuple(float(t) for t in tarr)
     t_now = 0.0
+    steps = []                                  # (interval, its step) per time
     try:
         for t in tarr:
             n = math.ceil((t - t_now) / dt - 1e-9)
             h = (t - t_now) / n if n > 0 else dt
+            tau = float(t) - t_now
             p, ip = S.step_params(system, h, max_impacts)
             imp = np.zeros((n_batches, 2))
             wimp = np.zeros((n_batches, 2, K.NW))
@@ -301,9 +310,21 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
                         sample_every=0, quantities=list(quantities), mode=system.barriers,
                         initial=init.describe(), spawn_key=list(ss.spawn_key))
             out.append(_reduce(system, hist, mom, imp, xext, h, meta, wimp))
+            steps.append((tau, h))
     except KeyboardInterrupt:
         out.partial = True
         print(f"\n[montecarlo] interrupted: returning {len(out)} of {tarr.size} times "
               "(run.partial = True)", file=sys.stderr)
     prog.close()
+    if not out.partial:
+
+        def again(dt2: float) -> TransientRun:
+            return transient(system, initial=initial, times=tarr, n_paths=n_paths, dt=dt2,
+                             seed=np.random.SeedSequence(**family), quantities=(),
+                             n_batches=n_batches, max_impacts=max_impacts, progress=False,
+                             threads=threads)
+
+        sources = shared_second_run(again, dt, steps)
+        for sol, source in zip(out, sources):
+            sol._second_run = source     # the estimate's bias run (.estimate), made once
     return out

@@ -6,64 +6,182 @@
     estimate = 2 SE + |bias| + 2 SE(bias)
 
 The standard error SE comes from the spread between independent batches of paths.
-The time-step bias of the scheme is O(dt²) (:mod:`fpk_vibro.montecarlo`), so a
+The time-step bias of the scheme is O(h²) (:mod:`fpk_vibro.montecarlo`), so a
 second run at 2 dt with the same paths, times, burn-in and seed family gives
 bias(dt) ≈ (m(2 dt) − m(dt)) / 3, with its own standard error
-sqrt(SE² + SE₂²) / 3 (the two runs are independent samples).  Where 2 dt is refused
-(beyond a stability limit of the system), the second run is at dt/2 and
+sqrt(SE² + SE₂²) / 3 (taken as independent samples; where the two runs share their
+start, as a transient's do, this overstates it).  Where 2 dt is refused (beyond a
+stability limit of the system), the second run is at dt/2 and
 bias(dt) ≈ 4 (m(dt) − m(dt/2)) / 3.  The second run costs about half (2 dt) or
-twice (dt/2) the first.  Assumes the bias follows its leading order between the two
-steps; a transient or a partial (interrupted) run has no second run: its estimate is
-2 SE with ``bias`` NaN, and ``assumes`` says so.
+twice (dt/2) the first.
+
+A transient (:func:`~fpk_vibro.montecarlo.transient`) makes one second transient
+run for all its times (the same initial ensemble, times and seed; on the first
+estimate asked of any of them, :func:`shared_second_run`).  Each interval between
+output times is cut into equal steps, h_j = τ_j / ceil(τ_j / dt), so the second run's
+steps h'_j are not always 2 h_j (one step of an interval ≤ dt stays one step).  With
+a bias built up evenly over the history, bias(t) ∝ S = Σ τ_j h_j² over the intervals
+up to t, and::
+
+    bias(dt) ≈ S / (S − S') × (m(dt) − m'),     S' = Σ τ_j h'_j²
+
+which is −1/3 (2 dt) and 4/3 (dt/2) where every ratio is exact, and the stationary
+factor with S = dt², S' = dt'².  At t = 0 (no step: S = 0) the two runs hold the same
+initial ensemble and the bias is 0; where S' = S (every interval a single step in
+both runs) it cannot be told: the estimate is then 2 SE with ``bias`` NaN.  Assumes
+the bias follows its leading order between the two steps.  A partial (interrupted)
+run, or a transient read from a file, has no second run: its estimate is 2 SE with
+``bias`` NaN, and ``assumes`` says so.
 """
 from __future__ import annotations
 
+import functools
 import math
 import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
+from .._checks import InputError
 from ..keys import JUDGED, moment_scale
 
-__all__ = ["error_estimate", "JUDGED"]
+__all__ = ["error_estimate", "second_run", "shared_second_run", "bias_factor", "JUDGED"]
 
+#: What a member's second-run source gives: (the second run's solution at the same
+#: time, the bias factor, "2 dt" or "dt/2", seconds the second run took).
+Second = tuple[Any, float, str, float]
 
 
 def _scale(key: str, value: float) -> float:
     return max(moment_scale(key, value), 1e-300)        # (a zero moment: no division)
 
 
-def error_estimate(sol) -> dict[str, Any]:
-    """The estimate of the module docstring for a :class:`MonteCarloSolution`."""
-    from .._checks import InputError
+def bias_factor(steps: Sequence[tuple[float, float]], steps2: Sequence[float]) -> float:
+    """The factor f of bias(dt) ≈ f (m(dt) − m') (module docstring).
+
+    Parameters
+    ----------
+    steps : sequence of (float, float)
+        ``(τ_j, h_j)``: each interval's length and step in the run estimated (one
+        pair for a stationary run: any τ > 0 and its dt).
+    steps2 : sequence of float
+        The second run's step h'_j on the same intervals.
+
+    Returns
+    -------
+    float
+        S / (S − S'); 0 where no step was taken (S = 0: the same ensemble); NaN where
+        the two runs took the same steps (S' = S: no bias can be told).
+    """
+    S = math.fsum(tau * h * h for tau, h in steps)
+    S2 = math.fsum(tau * h2 * h2 for (tau, _), h2 in zip(steps, steps2))
+    if S == 0.0:
+        return 0.0
+    if S2 == S:
+        return math.nan
+    return S / (S - S2)
+
+
+def second_run(run: Callable[[float], Any], dt: float) -> tuple[Any, str]:
+    """``run(2 dt)``, or ``run(dt/2)`` where 2 dt is refused (InputError); with "2 dt" or
+    "dt/2"."""
+    try:
+        return run(2.0 * dt), "2 dt"
+    except InputError:
+        return run(0.5 * dt), "dt/2"
+
+
+def shared_second_run(run: Callable[[float], Any], dt: float,
+                      steps: Sequence[tuple[float, float]]) -> list[Callable[[], Second]]:
+    """One source of the second run per time of a transient, all sharing one run.
+
+    Parameters
+    ----------
+    run : callable
+        ``run(dt')``: the same transient at largest step dt' (a list of solutions at
+        the same times).
+    dt : float
+        The largest step of the run estimated.
+    steps : sequence of (float, float)
+        ``(τ_j, h_j)`` of the run estimated, one per output time (τ = 0 for t = 0).
+
+    Returns
+    -------
+    list of callable
+        The i-th gives :data:`Second` for the i-th time; the run is made on the first
+        call of any of them and kept (not kept if it raised or was interrupted).
+    """
+    steps = [(float(tau), float(h)) for tau, h in steps]
+
+    @functools.cache
+    def once() -> tuple[Any, str, float]:
+        t0 = time.perf_counter()
+        other, step = second_run(run, dt)
+        if getattr(other, "partial", False):
+            raise KeyboardInterrupt("montecarlo: the second run of the transient's error "
+                                    "estimate was interrupted")
+        return other, step, time.perf_counter() - t0
+
+    def member(i: int) -> Second:
+        other, step, seconds = once()
+        f = bias_factor(steps[:i + 1], [o.dt for o in other[:i + 1]])
+        return other[i], f, step, seconds
+
+    return [functools.partial(member, i) for i in range(len(steps))]
+
+
+def _stationary_second(sol) -> Second:
+    """The stationary run again at 2 dt (or dt/2), the same paths, times and seed."""
     stationary = type(sol).rerun     # the engine's solver (set by it: no import back)
+    kw = dict(n_paths=int(sol.n_paths), t_burn=float(sol.t_burn),
+              t_sample=float(sol.t_sample), n_batches=int(sol.n_batches),
+              seed=None if sol.seed_entropy is None else int(sol.seed_entropy),
+              quantities=("x",), progress=False)
     t0 = time.perf_counter()
+    other, step = second_run(lambda dt: stationary(sol.system, dt=dt, **kw), sol.dt)
+    return other, bias_factor([(1.0, sol.dt)], [other.dt]), step, time.perf_counter() - t0
+
+
+def error_estimate(sol) -> dict[str, Any]:
+    """The estimate of the module docstring for a :class:`MonteCarloSolution`.
+
+    Returns
+    -------
+    dict
+        The relative estimate of each judged moment, ``bias`` (relative, signed, per
+        moment; NaN where not estimated), ``assumes`` and ``seconds`` (the second
+        run's time: a transient's is shared by its times).
+    """
     m, se = sol.moments(), sol.moments_se()
     keys = [k for k in JUDGED if k in m]
+    if sol.time is not None:     # a transient: the engine's shared source, if any
+        source = getattr(sol, "_second_run", None)
+    else:
+        source = functools.partial(_stationary_second, sol) if sol.dt and sol.t_sample \
+            else None
+    if sol.partial or source is None:
+        other, factor, seconds = None, math.nan, 0.0
+        assumes = ("2 standard errors only: no second run (an interrupted run, or a "
+                   "transient read from a file), so the time-step bias is not estimated")
+    else:
+        other, factor, step, seconds = source()
+        if math.isnan(factor):
+            assumes = (f"2 standard errors only: the run at {step} took the same steps "
+                       "(every interval up to this time is one step), so the time-step "
+                       "bias cannot be told")
+        else:
+            assumes = (f"2 standard errors plus the time-step bias from a run at {step} "
+                       "(O(dt²) scheme) and twice its standard error")
+            if sol.time is not None:
+                assumes += ("; one second transient for all times, its bias taken as "
+                            "built up evenly over the steps so far")
+    told = not math.isnan(factor)
+    m2, se2 = (other.moments(), other.moments_se()) if told else (m, se)
     out: dict[str, Any] = {}
-    if sol.time is not None or sol.partial or not sol.dt or not sol.t_sample:
-        for k in keys:
-            out[k] = 2.0 * se[k] / _scale(k, m[k])
-        out.update(bias=math.nan, assumes="2 standard errors only: the time-step bias of a "
-                   "transient or interrupted run is not estimated", seconds=0.0)
-        return out
-    run = dict(n_paths=int(sol.n_paths), t_burn=float(sol.t_burn),
-               t_sample=float(sol.t_sample), n_batches=int(sol.n_batches),
-               seed=None if sol.seed_entropy is None else int(sol.seed_entropy),
-               quantities=("x",), progress=False)
-    try:
-        other = stationary(sol.system, dt=2.0 * sol.dt, **run)
-        factor, step = -1.0 / 3.0, "2 dt"
-    except InputError:
-        other = stationary(sol.system, dt=0.5 * sol.dt, **run)
-        factor, step = 4.0 / 3.0, "dt/2"
-    m2, se2 = other.moments(), other.moments_se()
-    bias = {}
+    bias: dict[str, float] = {}
     for k in keys:
-        b = factor * (m[k] - m2[k])
-        b_se = abs(factor) * math.sqrt(se[k] ** 2 + se2[k] ** 2)
+        b = factor * (m[k] - m2[k]) if told else 0.0
+        b_se = abs(factor) * math.sqrt(se[k] ** 2 + se2[k] ** 2) if told else 0.0
         bias[k] = b / _scale(k, m[k])
         out[k] = (2.0 * se[k] + abs(b) + 2.0 * b_se) / _scale(k, m[k])
-    out.update(bias=bias, assumes=f"2 standard errors plus the time-step bias from a run at "
-               f"{step} (O(dt²) scheme) and twice its standard error",
-               seconds=time.perf_counter() - t0)
+    out.update(bias=bias if told else math.nan, assumes=assumes, seconds=seconds)
     return out

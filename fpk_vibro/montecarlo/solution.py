@@ -196,11 +196,17 @@ class MonteCarloSolution(Solution):
 
     def error_estimate(self) -> dict[str, Any]:
         """Statistics and time-step bias together: 2 SE plus the bias from a second run
-        at 2 dt (:mod:`fpk_vibro.montecarlo.estimate`; computed on the first call)."""
+        at 2 dt (:mod:`fpk_vibro.montecarlo.estimate`; computed on the first call; a
+        transient's times share one second run, which its engine attached)."""
         if getattr(self, "_estimate", None) is None:
             from .estimate import error_estimate
             self._estimate = error_estimate(self)
         return dict(self._estimate)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the transient's second-run source is a closure over its run (not picklable):
+        # a copy sent elsewhere keeps an estimate already made, or gives 2 SE only
+        return {k: v for k, v in self.__dict__.items() if k != "_second_run"}
 
     def mean_x(self) -> float:
         """E[x], the average of the sampled x (not of the histogram); from the
