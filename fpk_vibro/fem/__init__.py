@@ -16,7 +16,8 @@ coupling), ``impact`` (B± coupling), ``generator`` (assembly of L, M), ``mesh``
 ``positive_grid`` and ``limiter``), ``afc``, ``nonnegative``, ``solution``
 (:class:`FEMSolution`, with ``marginals``, ``solution_files``, ``under_resolved``),
 ``estimate`` and ``compare`` (the error estimate and the rtol solve), ``transient``
-and ``transient_accuracy``, ``first_passage`` (with ``safe_set`` and
+(with ``relaxation``), ``transient_accuracy`` (rtol) and ``transient_estimate`` (the
+estimate without rtol), ``first_passage`` (with ``safe_set`` and
 ``passage_parts``), ``options`` (with ``wall_layers``), ``benchmark``.
 
 Measured accuracy and speed on the exact case (orders of Q1/Q2/P1/P2 and of the

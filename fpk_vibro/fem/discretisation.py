@@ -87,6 +87,8 @@ class Discretisation:
         #: the options of a positivity="auto" build (None otherwise): stationary()
         #: corrects the Galerkin density to p >= 0
         self.auto: Any = None
+        #: the options :func:`build` made it from (None when built otherwise)
+        self.options: Any = None
 
     @property
     def kind(self) -> str:
@@ -174,7 +176,14 @@ def default_mesh(system: VibroImpactSystem, opts: Any):
 
 
 def build(system: VibroImpactSystem, opts: Any) -> Discretisation:
-    """The :class:`Discretisation` of validated options ``opts`` (module docstring)."""
+    """The :class:`Discretisation` of validated options ``opts`` (module docstring),
+    which it keeps as ``options`` (a transient's estimate builds a richer one)."""
+    disc = _build(system, opts)
+    disc.options = opts
+    return disc
+
+
+def _build(system: VibroImpactSystem, opts: Any) -> Discretisation:
     if opts.positivity == "auto":        # Galerkin; stationary() may switch
         disc = build(system, opts.replace(positivity=False))
         disc.auto = opts

@@ -93,8 +93,9 @@ def richer_options(opts: Any, sol=None) -> Any:
     if sol is not None and sol._tensor is not None and structured:
         xs, ys = sol._tensor
         nx, ny, y_max = int(xs.size - 1), int(ys.size - 1), float(ys[-1])
-    elif sol is not None and opts.mesh is None:
-        nx, ny, y_max = opts.nx, opts.ny, float(sol.y_max)
+    elif sol is not None and opts.mesh is None:      # (nx, ny as given or their defaults)
+        _, nx, ny = opts.grid(sol.system)
+        y_max = float(sol.y_max)
     else:
         nx, ny, y_max = opts.nx, opts.ny, opts.y_max
     if structured:

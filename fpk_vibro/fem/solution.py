@@ -41,7 +41,6 @@ from .under_resolved import RESOLUTION_TOL, diagnosis, flag_estimate  # noqa: F4
 __all__ = ["FEMSolution"]
 
 
-
 class FEMSolution(Solution):
     """Stationary FE density on a mesh of the strip (docs/theory.md, §FPK on the strip).
 
@@ -272,16 +271,19 @@ class FEMSolution(Solution):
             ``L1`` (∫|p_h − p|), ``E_H``, ``E_x2``, ``E_y2`` and with barriers
             ``P_impact`` (relative), ``assumes`` (what the estimate rests on),
             ``richer`` (the level it was compared with), ``seconds``.  Computed on
-            first call by one richer solve (degree + 1, or h/2 at degree 4) unless
-            ``fem.stationary(..., rtol=...)`` made it already; afterwards
+            first call by one richer solve (degree + 1, or h/2 at degree 4; a
+            transient's: one richer transient for all its times,
+            :mod:`fpk_vibro.fem.transient_estimate`) unless ``fem.stationary(...,
+            rtol=...)`` or ``fem.transient(..., rtol=...)`` made it; afterwards
             ``info["error_estimate"]`` holds the largest entry and
             ``info["under_resolved"]`` is also set when it exceeds the solve's
             ``rtol`` (or 1e-3, :data:`RESOLUTION_TOL`, without one).
         """
         if self._estimate is None:
-            if getattr(self, "time", None) is not None:
-                raise ValueError("error_estimate: a transient density has an estimate only "
-                                 "when solved with fem.transient(..., rtol=...)")
+            if self.snapshot_time() is not None and "estimator" not in vars(self):
+                raise ValueError("error_estimate: this transient density has no estimate "
+                                 "(fem.transient gives it to the list it returns, not to "
+                                 "a density read from a file)")
             self._estimate = self.estimator(self)
         self._apply_estimate()
         return dict(self._estimate)

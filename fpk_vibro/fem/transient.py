@@ -45,12 +45,12 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import scales
-from .._checks import check_float
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..progress import Progress
 from ..solution import Solution, TransientResult
 from .discretisation import Discretisation, build
+from .relaxation import relaxation_time
 from .solve import factorised as step_solver, grid_nested_dissection, is_p1, nd_lu
 from .solution import FEMSolution
 
@@ -182,9 +182,11 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     Returns
     -------
     list of FEMSolution
-        One per time, each with ``.time``, ``.mass`` and ``.min_density``; if
-        interrupted (Ctrl-C) the finished ones, each with ``partial=True`` in
-        ``info``.
+        One per time, each with ``.time``, ``.mass``, ``.min_density`` and
+        ``error_estimate()`` (without ``rtol``: the first call on any of them runs one
+        richer transient, in space and time, for all;
+        :mod:`fpk_vibro.fem.transient_estimate`); if interrupted (Ctrl-C) the
+        finished ones, each with ``partial=True`` in ``info``.
     """
     from .options import Options
     check_system("fem.transient", system)
@@ -247,8 +249,14 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             return solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
         return _bdf2(solve, M, p, p_prev, h, h_prev)
 
+    def done(out: list) -> list:     # error_estimate(): one richer run, on demand
+        from .transient_estimate import attach
+        return attach(out, system, initial, t_out, opts, progress, transient, scheme=scheme,
+                      theta=theta, dt=dt, tol=tol)
+
     if tol is not None:
-        return _march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache, factorised, progress)
+        return done(_march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache, factorised,
+                                    progress))
     n_total = int(sum(math.ceil((b - a) / dt - 1e-9) for a, b in zip(np.r_[0.0, t_out[:-1]], t_out)))
     bar = Progress(progress, "fem.transient", total=n_total, unit="step")
     out = TransientResult()
@@ -271,7 +279,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         _mark_partial(out, t_now)
     finally:
         bar.close(f"{steps} steps in {time.perf_counter() - t0:.1f} s")
-    return out
+    return done(out)
 
 
 def _bdf2(solve, M, p, p_prev, h, h_prev):
@@ -368,31 +376,3 @@ def _lagrange(hist: list[tuple[float, np.ndarray]], t: float) -> np.ndarray:
         w = math.prod((t - tj) / (ti - tj) for j, tj in enumerate(ts) if j != i)
         out += w * pi
     return out
-
-
-def relaxation_time(system: VibroImpactSystem, *, tol: float = 1e-3,
-                    discretisation: Discretisation | None = None, **mesh_kw: Any
-                    ) -> dict[str, float]:
-    """Slowest decay rate of the FE operator and the time to relax to ``tol`` in L1.
-
-    The generalised eigenproblem L v = λ M v has λ0 = 0 (the stationary density)
-    and Re λ < 0 otherwise; the slowest rate is λ1 = min |Re λ| over the rest
-    (``scipy.sparse.linalg.eigs`` in shift-invert mode near 0).  A perturbation of
-    L1 size ε0 ~ 1 decays below ``tol`` after about ln(1/tol)/λ1.
-
-    Returns
-    -------
-    dict with ``rate`` (λ1), ``time`` (ln(1/tol)/λ1) and ``eigenvalues`` (the few
-    computed, sorted by |Re|).
-    """
-    check_float("tol", tol, 0.0, 1.0, hi_open=True, where="fem.relaxation_time")
-    disc = discretisation or discretise(system, **mesh_kw)
-    sigma = -1e-6
-    vals = spla.eigs(disc.L.tocsc(), k=6, M=disc.M.tocsc(), sigma=sigma,
-                     return_eigenvectors=False)
-    vals = vals[np.argsort(np.abs(vals.real))]
-    rest = vals[np.abs(vals) > 1e-8 * max(1.0, np.abs(vals).max())]
-    rate = float(np.min(np.abs(rest.real)))
-    return {"rate": rate, "time": math.log(1.0 / tol) / rate,
-            "eigenvalues": [complex(v) for v in vals]}
-

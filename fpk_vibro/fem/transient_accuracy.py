@@ -24,8 +24,8 @@ from typing import Any
 
 from .._checks import InputError
 from ..model import VibroImpactSystem
-from .estimate import (ASSUMES, SAFETY, _combine, difference, richer_options, start_nx,
-                       truncation, worst)
+from .estimate import richer_options, start_nx, worst
+from .transient_estimate import estimates, give
 
 __all__ = ["adaptive_transient", "MAX_SECONDS", "TIME_SHARE"]
 
@@ -74,21 +74,18 @@ def adaptive_transient(system: VibroImpactSystem, initial: Any, times: Any, rtol
     while True:
         nxt_opts = richer_options(level, cur[-1])
         nxt = run(nxt_opts, tol / 4.0)
-        ests = [_combine(difference(a, b), truncation(a), a) for a, b in zip(cur, nxt)]
+        t1 = time.perf_counter()
+        ests = estimates(cur, nxt)
         e = max(worst(est) for est in ests)
         history.append((level.degree, level.nx, e))
         if e <= rtol:
             break
         cur, level, tol = nxt, nxt_opts, tol / 4.0
-    seconds = time.perf_counter() - t0
-    for sol, est in zip(cur, ests):
-        est = dict(est)
-        est["assumes"] = (ASSUMES.format(safety=SAFETY) + f"; in time, the BDF2 local "
-                          f"tolerance {tol:.2g} against {tol / 4:.2g}")
-        est["richer"] = f"degree {nxt_opts.degree}, nx {nxt_opts.nx}, tol {tol / 4:.2g}"
-        sol._estimate = est
-        sol.info.update(rtol=rtol, adapt_seconds=seconds, adapt_levels="; ".join(
-            f"degree {d}, nx {n}: {x:.2g}" for d, n, x in history))
-        sol._apply_estimate()
+    # the estimate's seconds: the richer level's run and the comparisons
+    give(cur, ests, in_time=f"the BDF2 local tolerance {tol:.2g} against {tol / 4:.2g}",
+         richer=f"degree {nxt_opts.degree}, nx {nxt_opts.nx}, tol {tol / 4:.2g}",
+         seconds=last[0] + time.perf_counter() - t1, rtol=rtol,
+         adapt_seconds=time.perf_counter() - t0,
+         adapt_levels="; ".join(f"degree {d}, nx {n}: {x:.2g}" for d, n, x in history))
     return cur
 
