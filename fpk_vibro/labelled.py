@@ -161,7 +161,8 @@ def run_dataset(out_dir: str | Path):
 
     Dimensions ``point`` (with the swept parameters as coordinates), ``method`` and,
     for transient scenes, ``time``; moments as ``E_H(point, method[, time])`` with
-    ``*_se`` for Monte Carlo (NaN where a method has none); densities, where the run
+    ``*_se`` for Monte Carlo (NaN where a method has none), each answer's estimate
+    as ``<key>_error_estimate`` (inf: no bound follows; NaN: none made); densities, where the run
     wrote them, as ``pdf_<q>(point, method, <q>_index)`` with their grids as the
     coordinate ``<q>_grid(point, <q>_index)`` (grids differ between points).
     """
@@ -192,16 +193,18 @@ def run_dataset(out_dir: str | Path):
                             arr[(i, j, k) if transient else (i, j)] = v
             if suffix == "" or np.isfinite(arr).any():
                 data[key + suffix] = (dims, arr)
-    if not transient:       # the estimates of the run (results.json), NaN where none
-        for key in ESTIMATE_KEYS:
-            arr = np.full(shape, np.nan)
-            for i, p in enumerate(points):
-                for j, m in enumerate(methods):
-                    est = (p.get("methods", {}).get(m) or {}).get("error_estimate") or {}
+    for key in ESTIMATE_KEYS:    # the estimates of the run (results.json), NaN where none
+        arr = np.full(shape, np.nan)
+        for i, p in enumerate(points):
+            for j, m in enumerate(methods):
+                e = p.get("methods", {}).get(m) or {}
+                for k, rec in enumerate(e.get("at") or [e]):
+                    est = rec.get("error_estimate") or {}
                     if key in est:      # None in JSON: no bound follows
-                        arr[i, j] = np.inf if est[key] is None else est[key]
-            if not np.isnan(arr).all():
-                data[f"{key}_error_estimate"] = (dims, arr)
+                        arr[(i, j, k) if transient else (i, j)] = (
+                            np.inf if est[key] is None else est[key])
+        if not np.isnan(arr).all():
+            data[f"{key}_error_estimate"] = (dims, arr)
     params = sorted({k for p in points for k in p.get("parameters", {})})
     coords: dict[str, Any] = {"point": np.arange(len(points)), "method": methods,
                               "status": ("point", [p.get("status", "") for p in points])}

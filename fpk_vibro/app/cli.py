@@ -181,12 +181,12 @@ def _print_summary(doc: dict) -> None:
             # a method a signal cut short: its numbers are from the part it finished
             flag = "  PARTIAL (interrupted)" if e.get("partial") or rec.get("partial") else ""
             print(f"  {label:<24s} {method:<11s} {e['wall_time_s']:7.2f} " +
-                  " ".join(f"{c:>18s}" for c in cells) + f" {_error_cell(e):>12s}" + flag)
+                  " ".join(f"{c:>18s}" for c in cells) + f" {_error_cell(rec):>12s}" + flag)
 
 
 def _error_cell(entry: dict) -> str:
-    """The largest relative figure of a method's error estimate ("-" where none;
-    "unbounded" where the estimate says no bound follows)."""
+    """The largest relative figure of a method's error estimate (of a transient: at the
+    last time; "-" where none; "unbounded" where the estimate says no bound follows)."""
     est = entry.get("error_estimate")
     if not est:
         return "-"

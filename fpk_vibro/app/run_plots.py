@@ -6,10 +6,12 @@ files, methods named in words, Monte Carlo with ±1 standard-error bars.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
+from ..keys import moment_scale
 from .plotting import _STYLE, METHOD_NAMES, _Figures, _pyplot, _sampled, _save
 
 __all__ = ["impact_speeds", "reliability", "moment_history", "sweep_overlay", "sweep_moments"]
@@ -79,23 +81,42 @@ def reliability(passages: dict, path, *, title: str = "") -> Path:
     return _save(fig, path)
 
 
-def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") -> Path:
-    """A moment against time for each method (Monte Carlo with ±1 SE bars).
+def _relative(est: dict | None, key: str) -> float:
+    """A record's relative estimate of ``key``: NaN where none was made."""
+    if not est or key not in est:
+        return math.nan
+    return math.inf if est[key] is None else float(est[key])
 
-    ``entries``: method → {"times": [...], "at": [{"moments": {...}, "moments_se": {...}}]}
-    as written in results.json.
+
+def moment_history(entries: dict, path, *, key: str = "E_H", title: str = "") -> Path:
+    """A moment against time for each method: Monte Carlo with bars of its estimate
+    (±1 SE where it has none), the others with a band of their estimate where the
+    record holds one.
+
+    ``entries``: method → {"times": [...], "at": [{"moments": {...}, "moments_se": {...},
+    "error_estimate": {...}}]} as written in results.json.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
     for method, e in entries.items():
         t = np.asarray(e["times"], dtype=float)
         v = np.array([a["moments"][key] for a in e["at"]])
+        # relative estimate → absolute half-width (NaN: none made, inf: unbounded)
+        rel = np.array([_relative(a.get("error_estimate"), key) for a in e["at"]])
+        scale = np.array([moment_scale(key, x) for x in v])
         if _sampled(method):
             se = np.array([a["moments_se"][key] for a in e["at"]])
-            ax.errorbar(t, v, yerr=se, fmt="o", ms=4, mfc="none", color="C2", capsize=2,
-                        label="Monte Carlo (±1 SE)")
+            has = np.isfinite(rel)
+            bar = np.where(has, rel * scale, se)
+            ax.errorbar(t, v, yerr=bar, fmt="o", ms=4, mfc="none", color="C2", capsize=2,
+                        label="Monte Carlo (±estimate)" if has.all() else "Monte Carlo (±1 SE)")
         else:
-            ax.plot(t, v, marker=".", label=method, **_STYLE.get(method, {}))
+            style = _STYLE.get(method, {})
+            line, = ax.plot(t, v, marker=".", label=method, **style)
+            if np.isfinite(rel).any():
+                half = np.where(np.isfinite(rel), rel * scale, 0.0)
+                ax.fill_between(t, v - half, v + half, color=line.get_color(), alpha=0.2,
+                                lw=0)
     ax.set_xscale("symlog", linthresh=1.0)
     ax.set_xlabel("time $t$")
     ax.set_ylabel({"E_H": r"$E[H](t)$", "E_x2": r"$E[x^2](t)$", "E_y2": r"$E[y^2](t)$"}.get(key, key))

@@ -62,35 +62,68 @@ def _partial(sol: Any) -> bool:
 AVERAGING_WARN = 0.01
 
 
-def _estimate_record(method: str, sol: Any, solutions: dict[str, Any]) -> dict[str, Any]:
-    """``error_estimate`` (every figure, None where unbounded) and, for averaging
-    beyond :data:`AVERAGING_WARN`, a ``warning`` naming its weakest assumption.
+def _estimate_of(method: str, sol: Any, reference: Any, how: str) -> dict[str, Any]:
+    """The estimate of one answer, as ``study.error_estimates`` (``how``) asks.
 
-    Only what the scene computes: averaging's model error needs an FE density of the
-    same system, so it is given where the scene runs fem too (and is absent, not
-    computed behind the scene's back, otherwise)."""
+    Averaging's model error is measured against ``reference``, the scene's own FE
+    answer at the same point (and time), when the scene runs fem; otherwise "auto"
+    takes its indicator model (stationary; no FE solve: compute only what the scene
+    asks for) and "fem-check" an FE solve of its own."""
+    if method == "averaging":
+        if reference is not None:
+            return sol.error_estimate(reference=reference)
+        if how == "fem-check":
+            return sol.error_estimate()
+        if getattr(sol, "time", None) is not None:
+            raise NotImplementedError(
+                f"{method}: a transient's model error needs an FE transient: add fem to the "
+                "scene or set study.error_estimates = \"fem-check\"")
+        return sol.error_estimate(by="indicators")
+    return sol.error_estimate()
+
+
+def _estimate_record(method: str, sol: Any, reference: Any = None, how: str = "auto"
+                     ) -> dict[str, Any]:
+    """``error_estimate`` (every figure, None where unbounded; ``not_computed`` with the
+    reason where none could be made) and, for averaging beyond
+    :data:`AVERAGING_WARN`, a ``warning`` naming its weakest assumption."""
     import math
-    try:
-        if hasattr(sol, "validity"):
-            if "fem" not in solutions:
-                return {}
-            est = sol.error_estimate(reference=solutions["fem"])
-        else:
-            est = sol.error_estimate()
-    except NotImplementedError:
+    if how == "none":
         return {}
-    except InputError as exc:        # e.g. the richer FE level beyond the budget
-        return {"error_estimate": {"not_computed": str(exc)}}
+    try:
+        est = _estimate_of(method, sol, reference, how)
+    except (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError) as exc:
+        # e.g. the richer FE level beyond the budget, a method without an estimate, a
+        # check solve that failed: the answer stays, its record says why it has no estimate
+        return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
     rec = {k: (float(est[k]) if math.isfinite(float(est[k])) else None)
            for k in ESTIMATE_KEYS if k in est}
     rec["assumes"] = est.get("assumes", "")
     out: dict[str, Any] = {"error_estimate": rec}
     worst = max((float(est[k]) for k in JUDGED if k in est), default=0.0)
-    if hasattr(sol, "validity") and worst > AVERAGING_WARN:
-        out["warning"] = (f"{method}: estimated model error {worst:.2g} > "
+    if method == "averaging" and worst > AVERAGING_WARN:
+        at = "" if getattr(sol, "time", None) is None else f" at t = {sol.time:g}"
+        out["warning"] = (f"{method}: estimated model error {worst:.2g}{at} > "
                           f"{AVERAGING_WARN:g} (its weakest assumption: "
                           f"{sol.validity()['weakest']})")
     return out
+
+
+def _add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any]) -> None:
+    """Every answer's estimate into its record (per time for a transient)."""
+    fem = solutions.get("fem")
+    for method, sol in solutions.items():
+        entry = record["methods"][method]
+        if not scene.transient:
+            entry.update(_estimate_record(method, sol, fem if method != "fem" else None,
+                                          scene.error_estimates))
+            continue
+        for k, (rec, snap) in enumerate(zip(entry["at"], sol)):
+            ref = fem[k] if fem is not None and method != "fem" else None
+            rec.update(_estimate_record(method, snap, ref, scene.error_estimates))
+            warning = rec.pop("warning", None)
+            if warning and k == len(entry["at"]) - 1:      # one line per point
+                entry["warning"] = warning
 
 
 def _moments_record(sol: Any) -> dict[str, Any]:
@@ -181,9 +214,8 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         record["methods"][method] = entry
         if record["status"] == "interrupted":
             break
-    if not scene.transient and record["status"] == "done":
-        for method, sol in solutions.items():
-            record["methods"][method].update(_estimate_record(method, sol, solutions))
+    if record["status"] == "done":
+        _add_estimates(scene, record, solutions)
     if token is not None and not holds(out_dir, token):
         raise RuntimeError("the run was stopped; this point's result is discarded")
     arrays: dict[str, np.ndarray] = {}

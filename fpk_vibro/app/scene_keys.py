@@ -15,7 +15,7 @@ from ..registry import methods
 from ..model import FIELDS, WALL_FIELDS
 from ..options import REQUIRED, Option, PerMode
 
-__all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "FORMATS", "SWEEPABLE", "STUDY_KEYS",
+__all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "FORMATS", "ERROR_ESTIMATES", "SWEEPABLE", "STUDY_KEYS",
            "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option",
            "method_names", "method_tables", "tables"]
 
@@ -27,6 +27,8 @@ QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage"
 #: Quantities of a stationary scene only.
 STATIONARY_ONLY = ("impacts", "first_passage")
 FORMATS = ("json", "npz", "png", "vtu", "nc")
+#: study.error_estimates: how each answer's error is estimated (runner._estimate_record).
+ERROR_ESTIMATES = ("auto", "fem-check", "none")
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
              "right.position", "right.r")
 
@@ -107,6 +109,12 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
         "times": Option(None, "output times; absent: stationary", "custom", check=_times,
                         allowed="increasing list of numbers >= 0", unit="s",
                         auto="stationary"),
+        "error_estimates": Option(ERROR_ESTIMATES[0], "how each answer's error is estimated: "
+                                  "\"auto\" every method's own estimate, averaging's from "
+                                  "the scene's fem (else its indicator model, or none for a "
+                                  "transient); \"fem-check\" averaging's by an FE solve even "
+                                  "without fem in the scene; \"none\" no estimate (saves "
+                                  "the extra runs)", "choice", choices=ERROR_ESTIMATES),
     },
     "initial": {
         "mean": Option(None, "[x0, y0] of the Gaussian start (transient)", "custom",

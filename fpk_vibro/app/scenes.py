@@ -68,6 +68,7 @@ class Scene:
     formats: tuple[str, ...]
     source: dict[str, Any] = field(default_factory=dict, repr=False)
     first_passage: dict[str, Any] | None = None
+    error_estimates: str = "auto"
 
     @property
     def transient(self) -> bool:
@@ -270,6 +271,8 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                  quantities=quantities, first_passage=fp,
                  times=times, numerics=numerics, initial=init, sweep=sweep,
                  output_dir=out_dir,
+                 error_estimates=study.get("error_estimates",
+                                           STUDY_KEYS["study"]["error_estimates"].default),
                  formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
                  source=data)
 

@@ -97,6 +97,15 @@ class EnergyGridSolution(Solution):
         return dict(self._estimate)
 
     # -- densities ----------------------------------------------------------------
+    def validity(self) -> dict[str, Any]:
+        """The small parameters averaging assumes small, at this density's mean energy,
+        with a verdict in plain words (:func:`fpk_vibro.averaging.validity.indicators`;
+        the stationary solution's adds the indicator model's estimate, which is
+        calibrated on stationary densities only)."""
+        from .validity import indicators, verdict, weakest
+        ind = indicators(self)
+        return {**ind, "verdict": verdict(ind), "weakest": weakest(ind)}
+
     def _interp(self, values: np.ndarray, H: np.ndarray) -> np.ndarray:
         inside = (H >= self.faces[0]) & (H <= self.faces[-1])
         return np.where(inside, np.interp(H, self.centres, values), 0.0)
