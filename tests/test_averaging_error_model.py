@@ -111,3 +111,16 @@ def test_indicators_solve_no_fe(monkeypatch):
             "assert 'fpk_vibro.fem' not in sys.modules, 'fem imported'\n")
     subprocess.run([sys.executable, "-c", code], check=True)
     assert math.isfinite(worst)
+
+
+def test_verdict_follows_the_estimate_and_names_the_larger_term():
+    """Averaging is exact at r = 1, D2 = 0 whatever the damping; strong impacts are
+    named as impacts, damping only together with parametric noise."""
+    from fpk_vibro import VibroImpactSystem, averaging
+    gibbs = averaging.stationary(VibroImpactSystem.paper(r=1.0, D2=0.0, c=0.3)).validity()
+    assert gibbs["estimated_error"] == 0.0 and gibbs["verdict"].startswith("averaging applies")
+    hard = averaging.stationary(VibroImpactSystem.paper(r=0.5)).validity()
+    assert hard["estimated_error"] > 0.05 and hard["verdict"].startswith("averaging is off")
+    assert hard["weakest"].startswith("impacts take") and hard["weakest"] in hard["verdict"]
+    para = averaging.stationary(VibroImpactSystem.paper(r=1.0, c=0.2, D2=0.1)).validity()
+    assert para["weakest"].startswith("damping with parametric noise")

@@ -113,7 +113,7 @@ def test_a_transient_scene_carries_an_estimate_per_time(tmp_path, capsys):
     point = doc["points"][0]
     # averaging is ~4 % off on this system (r = 0.92): one warning line, at the last time
     warned = [s for s in lines if "warning: averaging: estimated model error" in s]
-    assert len(warned) == 1 and "at t = 4" in warned[0] and "per period" in warned[0]
+    assert len(warned) == 1 and "at t = 4" in warned[0] and "per quasi-period" in warned[0]
     for method in ("averaging", "montecarlo", "fem"):
         for at in point["methods"][method]["at"]:
             est = at["error_estimate"]

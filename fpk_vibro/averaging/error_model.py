@@ -68,7 +68,7 @@ import numpy as np
 from ..keys import JUDGED
 from ..orbits import energy_loss, orbit_nodes
 
-__all__ = ["indicators", "estimate", "COEFFICIENTS", "C_PARAMETRIC", "CLIP", "FEATURES",
+__all__ = ["indicators", "estimate", "terms", "predict", "COEFFICIENTS", "C_PARAMETRIC", "CLIP", "FEATURES",
            "ASSUMES"]
 
 #: The features of the impact term, in the order of the exponents in COEFFICIENTS.
@@ -142,14 +142,21 @@ def indicators(sol) -> dict[str, float]:
             "parametric": float(W @ (K2 / np.maximum(K1 + K2, np.finfo(float).tiny)))}
 
 
-def predict(ind: dict[str, float], keys=JUDGED) -> dict[str, float]:
-    """The model of the module docstring at the indicators ``ind``."""
+def terms(ind: dict[str, float], keys=JUDGED) -> tuple[dict[str, float], float]:
+    """The model's two terms at the indicators ``ind``: the impact term per key (0
+    without impacts) and the damping-with-parametric-noise term (every key)."""
     base = C_PARAMETRIC * ind["damping"] * ind["parametric"]
     if ind["kr"] <= 0.0:
-        return {k: base for k in keys}
+        return {k: 0.0 for k in keys}, base
     logs = np.array([1.0] + [math.log(min(max(ind[f], CLIP[f][0]), CLIP[f][1]))
                              for f in FEATURES])
-    return {k: float(math.exp(np.dot(COEFFICIENTS[k], logs))) + base for k in keys}
+    return {k: float(math.exp(np.dot(COEFFICIENTS[k], logs))) for k in keys}, base
+
+
+def predict(ind: dict[str, float], keys=JUDGED) -> dict[str, float]:
+    """The model of the module docstring at the indicators ``ind``."""
+    impact, base = terms(ind, keys)
+    return {k: impact[k] + base for k in keys}
 
 
 def estimate(sol) -> dict[str, Any]:

@@ -97,39 +97,20 @@ class AveragedSolution(Solution):
         >>> 0.01 < sol.error_estimate(by="indicators")["E_H"] < 0.3
         True
         """
-        if by not in ("fem", "indicators"):
-            from .._checks import invalid
-            raise invalid("AveragedSolution.error_estimate", "by",
-                          'one of "fem", "indicators"', by)
-        from ..keys import JUDGED
-        if by == "indicators":
-            if self._indicator_estimate is None:
-                from .error_model import estimate
-                self._indicator_estimate = estimate(self)
-                worst = max(float(self._indicator_estimate[k]) for k in JUDGED
-                            if k in self._indicator_estimate)
-                self.info["error_estimate_indicators"] = worst
-                self.info.setdefault("error_estimate", worst)
-            return dict(self._indicator_estimate)
-        if self._estimate is None:
-            from .validity import model_error
-            self._estimate = model_error(self, reference)
-            self.info["error_estimate"] = max(
-                float(self._estimate[k]) for k in JUDGED if k in self._estimate)
-        return dict(self._estimate)
+        cache = "_indicator_estimate" if by == "indicators" else "_estimate"
+        if by not in ("fem", "indicators") or getattr(self, cache) is None:
+            from .validity import estimate
+            setattr(self, cache, estimate(self, reference, by))
+        return dict(getattr(self, cache))
 
     def validity(self) -> dict[str, Any]:
         """The small parameters averaging assumes small, at the mean energy, with a
-        verdict in plain words (:func:`fpk_vibro.averaging.validity.indicators`) and
-        the indicator model's estimate (``estimated_error``, its largest key,
-        ``estimated_key``; :mod:`fpk_vibro.averaging.error_model`, no FE solve)."""
-        from .validity import indicators, verdict, weakest
-        ind = indicators(self)
-        est = self.error_estimate(by="indicators")
-        key = max((k for k in ("E_H", "E_x2", "E_y2", "P_impact") if k in est),
-                  key=lambda k: est[k])
-        ind.update(estimated_error=float(est[key]), estimated_key=key)
-        return {**ind, "verdict": verdict(ind), "weakest": weakest(ind)}
+        verdict in plain words (:func:`fpk_vibro.averaging.validity.indicators`), the
+        indicator model's features (``model``) and estimate (``estimated_error``, its
+        largest key, ``estimated_key``; :mod:`fpk_vibro.averaging.error_model`, no FE
+        solve) and the weakest assumption (:func:`~fpk_vibro.averaging.validity.weakest`)."""
+        from .validity import report
+        return report(self)
 
     # -- Φ and its panel structure ------------------------------------------------
     def _maps(self) -> list[tuple[Regime, Any, Any, bool]]:

@@ -27,14 +27,16 @@ energy E = E[H] with quasi-period T(E):
 - ``noise``: sqrt(σ²(E) T(E))/E with σ² the averaged diffusion of the energy, the
   change the noise makes to the energy in a period relative to E.
 
-Damping and impacts must be small (≪ 1) where averaging holds; the verdict names
-those above :data:`LIMIT`.  The noise figure is reported but not judged: at
-equilibrium the energy's spread is of the order of the energy itself whatever the
-regime (measured 0.8 on the paper's case, where averaging is within 0.8 %).  The
-verdict is a reading aid; the number that counts is the model error.  Without an FE
-check, ``validity()`` adds the calibrated indicator model's estimate
-(:mod:`fpk_vibro.averaging.error_model`: averages over p(H), not values at E[H]) as
-``estimated_error`` and ``estimated_key``, which the verdict quotes.
+The noise figure is reported but not judged: at equilibrium the energy's spread is
+of the order of the energy itself whatever the regime (measured 0.8 on the paper's
+case, where averaging is within 0.8 %).  These values at E[H] are a reading aid.
+``validity()`` of a stationary density adds the calibrated indicator model
+(:mod:`fpk_vibro.averaging.error_model`: averages over p(H), not values at E[H]):
+its features (``model``), its estimate (``estimated_error`` of ``estimated_key``),
+the verdict that follows it (averaging is off above :data:`TOLERABLE`) and the
+weakest assumption, the larger of the model's two terms (:func:`weakest`).  A
+transient's density has only the values at E[H]; its verdict names those above
+:data:`LIMIT`.
 """
 from __future__ import annotations
 
@@ -46,7 +48,8 @@ import numpy as np
 
 from ..keys import JUDGED
 
-__all__ = ["model_error", "indicators", "verdict", "weakest", "LIMIT", "JUDGED"]
+__all__ = ["estimate", "report", "model_error", "indicators", "verdict", "weakest", "LIMIT",
+           "TOLERABLE", "JUDGED"]
 
 #: An indicator above this is named by the verdict.
 LIMIT = 0.3
@@ -78,6 +81,37 @@ def model_error(sol, reference: Any = None) -> dict[str, Any]:
     return out
 
 
+def estimate(sol, reference: Any = None, by: str = "fem") -> dict[str, Any]:
+    """``AveragedSolution.error_estimate``: by an FE check (:func:`model_error`) or
+    by the indicator model (:func:`fpk_vibro.averaging.error_model.estimate`),
+    recorded in ``sol.info`` ("error_estimate": the largest judged figure, an FE
+    check's taking precedence)."""
+    if by not in ("fem", "indicators"):
+        from .._checks import invalid
+        raise invalid("AveragedSolution.error_estimate", "by", 'one of "fem", "indicators"', by)
+    if by == "indicators":
+        from .error_model import estimate as by_indicators
+        est = by_indicators(sol)
+        worst = max(float(est[k]) for k in JUDGED if k in est)
+        sol.info["error_estimate_indicators"] = worst
+        sol.info.setdefault("error_estimate", worst)
+        return est
+    est = model_error(sol, reference)
+    sol.info["error_estimate"] = max(float(est[k]) for k in JUDGED if k in est)
+    return est
+
+
+def report(sol) -> dict[str, Any]:
+    """``AveragedSolution.validity()``: the indicators at E[H], the indicator model's
+    features (``model``) and estimate (``estimated_error`` of ``estimated_key``), a
+    verdict and the weakest assumption."""
+    ind: dict[str, Any] = indicators(sol)
+    est = sol.error_estimate(by="indicators")
+    key = max((k for k in JUDGED if k in est), key=lambda k: est[k])
+    ind.update(estimated_error=float(est[key]), estimated_key=key, model=est["indicators"])
+    return {**ind, "verdict": verdict(ind), "weakest": weakest(ind)}
+
+
 def indicators(sol) -> dict[str, float]:
     """The small parameters of averaging at the mean energy (module docstring)."""
     from ..orbits import energy_loss
@@ -92,23 +126,50 @@ def indicators(sol) -> dict[str, float]:
             "mean_energy": E, "period": T}
 
 
+#: The estimated model error (relative) above which the verdict says averaging is off.
+TOLERABLE = 0.01
+
+
 def verdict(ind: dict[str, Any]) -> str:
-    """Plain words: which small parameters are not small, and, where ``ind`` has it
-    (``AveragedSolution.validity()``), the indicator model's estimated model error
-    (``estimated_error`` of key ``estimated_key``, :mod:`.error_model`)."""
-    est = ""
+    """Plain words: whether averaging applies.  With the indicator model's estimate
+    (``estimated_error`` of ``estimated_key``, a stationary density's
+    ``validity()``) the verdict follows it (off where it passes :data:`TOLERABLE`,
+    naming the weakest assumption); otherwise (a transient's density) it names the
+    small parameters at E[H] above :data:`LIMIT`."""
     if "estimated_error" in ind:
-        est = (f"; estimated model error ~{100 * ind['estimated_error']:.2g} % "
+        est = (f"estimated model error ~{100 * ind['estimated_error']:.2g} % "
                f"({ind['estimated_key']}, indicator model)")
+        if ind["estimated_error"] <= TOLERABLE:
+            return f"averaging applies: {est}"
+        return (f"averaging is off: {est}; {weakest(ind)}; an FE check: "
+                "error_estimate()")
     bad = [f"{k} per period {ind[k]:.2g}" for k in ("damping", "impacts") if ind[k] > LIMIT]
     if not bad:
         return (f"quasi-conservative at the mean energy (damping and impacts each take "
-                f"< {LIMIT:g} of the energy per period): averaging applies" + est)
+                f"< {LIMIT:g} of the energy per period): averaging applies")
     return ("not quasi-conservative at the mean energy: " + ", ".join(bad) +
-            f" (> {LIMIT:g}){est}; expect a model error, see error_estimate()")
+            f" (> {LIMIT:g}); expect a model error, see error_estimate()")
 
 
-def weakest(ind: dict[str, float]) -> str:
-    """The indicator furthest from small, in words (for a one-line warning)."""
-    name = max(("damping", "impacts"), key=lambda k: ind[k])
-    return f"{name} takes {ind[name]:.2g} of the energy per period at E[H]"
+def weakest(ind: dict[str, Any]) -> str:
+    """The assumption furthest from holding, in words (for a one-line warning).
+
+    Averaging is exact for r = 1 and D2 = 0 whatever the damping, so what fails is
+    either the impacts' loss per quasi-period or damping together with parametric
+    noise: with the indicator model's features (``ind["model"]``, a stationary
+    density), the larger of its two terms (:func:`.error_model.terms`); otherwise
+    (a transient's density) the impacts where they take energy, else damping, at
+    E[H]."""
+    model = ind.get("model")
+    if model is not None:
+        from .error_model import terms
+        impact, parametric = terms(model)
+        if max(impact.values(), default=0.0) >= parametric and model["kr"] > 0:
+            return (f"impacts take {model['kr']:.2g} of the energy per quasi-period, on "
+                    f"{model['P']:.2g} of the mass")
+        return (f"damping with parametric noise: damping takes {model['damping']:.2g} of "
+                f"the energy per period, parametric noise {model['parametric']:.2g} of "
+                "the noise's input")
+    if ind["impacts"] > 0:
+        return f"impacts take {ind['impacts']:.2g} of the energy per quasi-period at E[H]"
+    return f"damping takes {ind['damping']:.2g} of the energy per period at E[H]"
