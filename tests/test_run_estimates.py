@@ -129,3 +129,28 @@ def test_a_transient_scene_carries_an_estimate_per_time(tmp_path, capsys):
     rows = [s for s in capsys.readouterr().out.splitlines() if " fem " in s]
     assert rows and rows[0].split()[-1] != "-"
     assert (tmp_path / "o" / "p0_E_H_t.png").exists()
+
+
+def test_a_signal_during_the_estimates_keeps_the_finished_answers(tmp_path, monkeypatch):
+    """Ctrl-C in Monte Carlo's second run (the bias): the point is written as
+    interrupted with every answer it finished, its estimates 'interrupted'; the run
+    stops as after any signal (results.json says so; --resume redoes the point)."""
+    import signal
+
+    from fpk_vibro.app.interrupt import Interrupted
+    from fpk_vibro.montecarlo.solution import MonteCarloSolution
+
+    def stopped(self):
+        raise Interrupted(signal.SIGINT)
+    monkeypatch.setattr(MonteCarloSolution, "error_estimate", stopped)
+    tmp_path.mkdir(exist_ok=True)
+    path = tmp_path / "s.toml"
+    path.write_text(SCENE.format(methods='["averaging", "montecarlo"]', extra="")
+                    + "\n[montecarlo]\nn_paths = 256\nt_sample = 50.0\n")
+    doc = run_scene(load_scene(path), out=tmp_path / "o", log=lambda *_: None)
+    assert doc["status"] == "interrupted"
+    point = json.loads((tmp_path / "o" / "points" / "p0.json").read_text())
+    assert point["status"] == "interrupted"
+    assert point["methods"]["montecarlo"]["moments"]["E_H"] > 0
+    assert point["methods"]["montecarlo"]["error_estimate"] == {"not_computed": "interrupted"}
+    assert "indicator" in point["methods"]["averaging"]["error_estimate"]["assumes"]

@@ -215,7 +215,13 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         if record["status"] == "interrupted":
             break
     if record["status"] == "done":
-        _add_estimates(scene, record, solutions)
+        try:
+            _add_estimates(scene, record, solutions)
+        except KeyboardInterrupt:     # (Interrupted too) the answers are kept: the point
+            record["status"] = "interrupted"    # is written as interrupted, then stops
+            for entry in record["methods"].values():
+                for rec in entry.get("at") or [entry]:
+                    rec.setdefault("error_estimate", {"not_computed": "interrupted"})
     if token is not None and not holds(out_dir, token):
         raise RuntimeError("the run was stopped; this point's result is discarded")
     arrays: dict[str, np.ndarray] = {}
