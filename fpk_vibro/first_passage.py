@@ -193,24 +193,57 @@ class FirstPassage:
     _mean_at: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     _estimate: dict | None = None
 
-    def error_estimate(self) -> dict[str, Any]:
-        """The method's own error estimate (finite elements: a two-level estimate).
+    def error_estimate(self, reference: "FirstPassage | None" = None) -> dict[str, Any]:
+        """The method's own error estimate of τ and R(t), made on the first call and kept.
 
-        A dict with ``"mean_time"`` (relative error of τ), ``"reliability"``
-        (largest absolute error of R(t) on the time grid) and ``"assumes"`` (what the
-        estimate takes for granted); the finite-element engine adds ``"order"`` and
-        ``"levels"`` ((nx, ny, n_steps) of the coarse and fine solves).  Monte Carlo
-        gives its 95 % half-width of τ relative to τ; averaging has none (raises
-        ValueError).
+        Parameters
+        ----------
+        reference : FirstPassage, optional
+            Averaging only: the finite-element first passage of the same system,
+            energy and start to measure the model error against (e.g. a scene's own);
+            default: ``fem.first_passage`` with its default accuracy, solved on the
+            first call.
+
+        Returns
+        -------
+        dict
+            ``"mean_time"`` (relative error of τ), ``"reliability"`` (largest absolute
+            error of R(t) on the time grid) and ``"assumes"`` (what the estimate takes
+            for granted).  Finite elements: the two-level estimate, with ``"order"``
+            and ``"levels"`` ((nx, ny, n_steps) of the coarse and fine solves).  Monte
+            Carlo: 2 SE + |bias| + 2 SE(bias) from one second run at 2 dt
+            (:func:`fpk_vibro.montecarlo._first_passage.error_estimate`), with ``"bias"``
+            (relative, signed) and ``"seconds"``.  Averaging: the difference to the
+            FE first passage plus FE's own estimate
+            (:func:`fpk_vibro.averaging.first_passage.model_error`), infinite with
+            FE's reason (``"reference"``) where FE refuses.
+
+        Raises
+        ------
+        ValueError
+            A ``reference`` given to a method other than averaging, or one of another
+            method, energy or start.
         """
-        if self._estimate is not None:
-            return dict(self._estimate)
-        if self.method == "montecarlo" and self.mean > 0:
-            return {"mean_time": 1.96 * self.mean_se / self.mean,
-                    "assumes": "the 95 % half-width of the sample mean (statistical "
-                               "error only; time-step bias not included)"}
-        raise ValueError(f"{self.method}.first_passage: no error estimate (the "
-                         "averaging approximation has no computable error bound)")
+        if reference is not None:
+            if self.method != "averaging":
+                raise ValueError(f"{self.method}.first_passage: error_estimate takes a "
+                                 "reference for averaging only")
+            from .averaging.first_passage import model_error
+            est = model_error(self, reference)
+            if self._estimate is None:
+                self._estimate = est
+            return dict(est)
+        if self._estimate is None:
+            if self.method == "montecarlo":
+                from .montecarlo._first_passage import error_estimate
+                self._estimate = error_estimate(self)
+            elif self.method == "averaging":
+                from .averaging.first_passage import model_error
+                self._estimate = model_error(self)
+            else:
+                raise ValueError(f"{self.method}.first_passage: no error estimate (this "
+                                 "result was not made by fem.first_passage)")
+        return dict(self._estimate)
 
     def mean_time(self, x0: Any = None, y0: Any = None) -> Any:
         """τ from the point (x0, y0) (arrays broadcast); no arguments: τ for the start.

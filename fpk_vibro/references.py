@@ -3,10 +3,12 @@
 Averaging's model error is measured against the finite-element density of the same
 system (``"fem"``, :mod:`fpk_vibro.averaging.validity`) and its transient's against
 the FE transient from the same initial condition (``"fem-transient"``,
-:meth:`fpk_vibro.averaging.EnergyGridSolution.error_estimate`), while the FE first
-passage already builds on averaging: a direct import would close a circle.  The registry
-(:mod:`fpk_vibro.registry`, above every method) provides the solvers here when the
-package loads; a method asks by name.
+:meth:`fpk_vibro.averaging.EnergyGridSolution.error_estimate`), and its first
+passage's against the FE first passage of the same system, energy and start
+(``"fem-first-passage"``, :func:`fpk_vibro.averaging.first_passage.model_error`),
+while the FE first passage already builds on averaging: a direct import would close a
+circle.  The registry (:mod:`fpk_vibro.registry`, above every method) provides the
+solvers here when the package loads; a method asks by name.
 """
 from __future__ import annotations
 

@@ -211,6 +211,7 @@ def _fem_transient_reference(system: VibroImpactSystem, *, initial: Any, times: 
 
 provide("fem", _fem_reference)
 provide("fem-transient", _fem_transient_reference)
+provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(system, **kw))
 
 _ALL = tuple(FEATURES)
 for _m in (

@@ -180,6 +180,19 @@ def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
         passages[method] = m.solver("first_passage")(system, energy=fp["energy"], start=start,
                                                      times=fp["times"], **kw)
         out["first_passage"] = passages[method].to_dict()
+        if scene.error_estimates != "none":
+            # averaging's model error against the scene's FE first passage when fem ran
+            # before it, else its own FE solve; a failure is recorded with its reason
+            ref = passages.get("fem") if method == "averaging" else None
+            try:
+                est = passages[method].error_estimate(reference=ref)
+            except (NotImplementedError, InputError, ValueError, RuntimeError,
+                    MemoryError) as exc:
+                rec: dict[str, Any] = {"not_computed": f"{type(exc).__name__}: {exc}"}
+            else:
+                rec = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+                       for k, v in est.items() if isinstance(v, (int, float, str))}
+            out["first_passage"]["error_estimate"] = rec
     return out
 
 

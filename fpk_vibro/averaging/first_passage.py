@@ -23,6 +23,7 @@ far below the decomposition's (``info["survival_method"]``).
 from __future__ import annotations
 
 import math
+import time
 from typing import Any, Sequence
 
 import numpy as np
@@ -30,7 +31,7 @@ from scipy import integrate, linalg
 
 from .._checks import InputError
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
-                             parse_start)
+                             parse_start, survival_at)
 from ..model import VibroImpactSystem, check_system
 from ..orbits import energy_floor, orbit_nodes
 from .coefficients import coefficients
@@ -39,7 +40,7 @@ from .energy_grid import energy_faces
 from .options import Options
 from .transient import averaged_operator
 
-__all__ = ["first_passage", "log10_mean_time"]
+__all__ = ["first_passage", "log10_mean_time", "model_error"]
 
 #: Largest accepted eps ‖A‖ τ of the eigen-decomposition (else the exponential law).
 RESOLVABLE = 1e-3
@@ -236,3 +237,90 @@ def _start_masses(system, kind, value, sol, faces, H_c) -> np.ndarray:
         Hs = system.energy(x, y)
         q, _ = np.histogram(Hs, bins=faces, weights=w)
     return q / q.sum()
+
+
+MODEL_ERROR_ASSUMES = (
+    "the difference to the finite-element first passage of the same system, energy and "
+    "start (fem.first_passage at its default accuracy, or the given one) plus FE's own "
+    "two-level estimate; assumes FE resolves the system; reliability: the largest "
+    "|R_averaging − R_FE| over the times both grids cover")
+
+
+def _start_spec(start: tuple) -> Any:
+    """The ``start`` argument that gives back ``FirstPassage.start``."""
+    kind, value = start
+    if kind == "stationary":
+        return "stationary"
+    if kind == "gaussian":
+        return {"mean": tuple(value["mean"]), "std": tuple(value["std"])}
+    return tuple(value)
+
+
+def model_error(fp: FirstPassage, reference: FirstPassage | None = None) -> dict[str, Any]:
+    """The model error of an averaged first passage (:meth:`FirstPassage.error_estimate`)::
+
+        mean_time   = |τ_averaging − τ_FE| / τ_FE + mean_time(FE)
+        reliability = max_t |R_averaging(t) − R_FE(t)| + reliability(FE)
+
+    over the union of both time grids up to the shorter one's end (R linear between
+    grid times).  FE: ``reference``, or ``fem.first_passage`` of the same system,
+    energy and start at its default accuracy (reached through
+    :mod:`fpk_vibro.references`, name ``"fem-first-passage"``: the FE first passage
+    builds on averaging, so it is not imported here).
+
+    Returns
+    -------
+    dict
+        ``mean_time``, ``reliability`` (infinite where FE refuses or has no
+        estimate), ``reference`` (what FE solve, or FE's reason), ``seconds``,
+        ``assumes``.
+
+    Raises
+    ------
+    ValueError
+        A ``reference`` that is not an FE first passage of the same energy and start.
+    """
+    from .._checks import InputError
+    from ..references import reference as solve_reference
+    where = "averaging.first_passage"
+    t0 = time.perf_counter()
+    out: dict[str, Any] = {"mean_time": math.inf, "reliability": math.inf,
+                           "assumes": MODEL_ERROR_ASSUMES}
+    if reference is not None:
+        if not isinstance(reference, FirstPassage) or reference.method != "fem" or \
+                not math.isclose(reference.energy, fp.energy, rel_tol=1e-12) or \
+                reference.start != fp.start:
+            got = (f"{reference.method} first passage, energy {reference.energy:g}, start "
+                   f"{reference.start[1]!r}") if isinstance(reference, FirstPassage) \
+                else type(reference).__name__
+            raise ValueError(f"{where}: error_estimate: reference must be the FE first "
+                             f"passage of energy {fp.energy:g} from {fp.start[1]!r}; got {got}")
+        ref, what = reference, "the given FE first passage"
+    else:
+        try:
+            ref = solve_reference("fem-first-passage", fp.system, energy=fp.energy,
+                                  start=_start_spec(fp.start))
+        except (InputError, ValueError, MemoryError) as exc:
+            out["reference"] = "none: fem.first_passage refused (" + \
+                " ".join(str(exc).split()) + ")"
+            out["seconds"] = time.perf_counter() - t0
+            return out
+        what = "fem.first_passage at its default accuracy"
+    try:
+        fe = ref.error_estimate()
+    except ValueError as exc:
+        out["reference"] = f"none: the FE first passage has no estimate ({exc})"
+        out["seconds"] = time.perf_counter() - t0
+        return out
+    t_end = min(float(fp.times[-1]), float(ref.times[-1]))
+    t = np.union1d(fp.times, ref.times)
+    t = t[t <= t_end]
+    dR = float(np.max(np.abs(survival_at(fp.times, fp.survival, t)
+                             - survival_at(ref.times, ref.survival, t))))
+    out.update(mean_time=abs(fp.mean - ref.mean) / ref.mean + float(fe["mean_time"]),
+               reliability=dR + float(fe["reliability"]),
+               reference=(f"{what} (nx = {ref.info.get('nx')}, τ = {ref.mean:.6g}, its "
+                          f"estimate {fe['mean_time']:.1g} of τ, {fe['reliability']:.1g} "
+                          "of R)"),
+               seconds=time.perf_counter() - t0)
+    return out
