@@ -209,3 +209,31 @@ def test_a_scene_writes_each_first_passage_estimate(tmp_path, how):
         assert est["assumes"]
     assert "given FE first passage" in fps["averaging"]["error_estimate"]["reference"]
     assert fps["montecarlo"]["error_estimate"]["step"] == "2 dt"
+
+
+def test_averaging_takes_the_scenes_fe_first_passage_in_any_order(tmp_path, monkeypatch):
+    """Averaging listed before fem still measures against the scene's own FE first
+    passage (no second FE solve); without fem, "auto" makes no FE solve behind the
+    scene's back (not computed, with the way to get one) and "fem-check" makes it."""
+    from fpk_vibro import references
+    from fpk_vibro.app.runner import run_scene
+    from fpk_vibro.app.scenes import load_scene
+    calls = []
+    real = references.reference
+    monkeypatch.setattr(references, "reference",
+                        lambda name, *a, **k: calls.append(name) or real(name, *a, **k))
+
+    def run(methods, how, out):
+        path = tmp_path / f"{out}.toml"
+        path.write_text(SCENE.format(extra=f'error_estimates = "{how}"').replace(
+            'methods = ["fem", "averaging", "montecarlo"]', f"methods = {methods}"))
+        run_scene(load_scene(path), out=tmp_path / out, log=lambda *_: None)
+        doc = json.loads((tmp_path / out / "results.json").read_text())
+        return doc["points"][0]["methods"]["averaging"]["first_passage"]["error_estimate"]
+
+    est = run('["averaging", "fem"]', "auto", "order")
+    assert "given FE first passage" in est["reference"] and "fem-first-passage" not in calls
+    est = run('["averaging"]', "auto", "alone")
+    assert "fem-check" in est["not_computed"] and "fem-first-passage" not in calls
+    est = run('["averaging"]', "fem-check", "check")
+    assert est["mean_time"] > 0 and calls.count("fem-first-passage") == 1

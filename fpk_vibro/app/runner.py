@@ -12,6 +12,7 @@ Layout of an output directory::
 """
 from __future__ import annotations
 
+import math
 import os
 import signal
 import time
@@ -87,7 +88,6 @@ def _estimate_record(method: str, sol: Any, reference: Any = None, how: str = "a
     """``error_estimate`` (every figure, None where unbounded; ``not_computed`` with the
     reason where none could be made) and, for averaging beyond
     :data:`AVERAGING_WARN`, a ``warning`` naming its weakest assumption."""
-    import math
     if how == "none":
         return {}
     try:
@@ -109,8 +109,34 @@ def _estimate_record(method: str, sol: Any, reference: Any = None, how: str = "a
     return out
 
 
-def _add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any]) -> None:
-    """Every answer's estimate into its record (per time for a transient)."""
+def _passage_estimate(method: str, fp: Any, reference: Any, how: str) -> dict[str, Any]:
+    """A first passage's estimate as ``study.error_estimates`` asks: averaging's model
+    error against the scene's FE first passage, or ("fem-check") an FE solve of its
+    own; with neither (as for a transient) none is made behind the scene's back."""
+    if how == "none":
+        return {}
+    try:
+        if method == "averaging" and reference is None and how != "fem-check":
+            raise NotImplementedError(
+                f"{method}: the first passage's model error needs an FE first passage: add "
+                "fem to the scene or set study.error_estimates = \"fem-check\"")
+        est = fp.error_estimate(reference=reference)
+    except (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError) as exc:
+        return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
+    return {"error_estimate": {
+        k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+        for k, v in est.items() if isinstance(v, (int, float, str))}}
+
+
+def _add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any],
+                   passages: dict[str, Any] | None = None) -> None:
+    """Every answer's estimate into its record (per time for a transient; a first
+    passage's beside it), once every method has run (averaging's against the
+    scene's FE answers, whatever the order of study.methods)."""
+    for method, fp in (passages or {}).items():
+        ref = passages.get("fem") if method == "averaging" else None
+        record["methods"][method]["first_passage"].update(
+            _passage_estimate(method, fp, ref, scene.error_estimates))
     fem = solutions.get("fem")
     for method, sol in solutions.items():
         entry = record["methods"][method]
@@ -180,19 +206,6 @@ def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
         passages[method] = m.solver("first_passage")(system, energy=fp["energy"], start=start,
                                                      times=fp["times"], **kw)
         out["first_passage"] = passages[method].to_dict()
-        if scene.error_estimates != "none":
-            # averaging's model error against the scene's FE first passage when fem ran
-            # before it, else its own FE solve; a failure is recorded with its reason
-            ref = passages.get("fem") if method == "averaging" else None
-            try:
-                est = passages[method].error_estimate(reference=ref)
-            except (NotImplementedError, InputError, ValueError, RuntimeError,
-                    MemoryError) as exc:
-                rec: dict[str, Any] = {"not_computed": f"{type(exc).__name__}: {exc}"}
-            else:
-                rec = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
-                       for k, v in est.items() if isinstance(v, (int, float, str))}
-            out["first_passage"]["error_estimate"] = rec
     return out
 
 
@@ -229,11 +242,11 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
             break
     if record["status"] == "done":
         try:
-            _add_estimates(scene, record, solutions)
+            _add_estimates(scene, record, solutions, passages)
         except KeyboardInterrupt:     # (Interrupted too) the answers are kept: the point
             record["status"] = "interrupted"    # is written as interrupted, then stops
             for entry in record["methods"].values():
-                for rec in entry.get("at") or [entry]:
+                for rec in (entry.get("at") or [entry]) + [entry.get("first_passage", {})]:
                     rec.setdefault("error_estimate", {"not_computed": "interrupted"})
     if token is not None and not holds(out_dir, token):
         raise RuntimeError("the run was stopped; this point's result is discarded")

@@ -112,8 +112,8 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
         "error_estimates": Option(ERROR_ESTIMATES[0], "how each answer's error is estimated: "
                                   "\"auto\" every method's own estimate, averaging's from "
                                   "the scene's fem (else its indicator model, or none for a "
-                                  "transient); \"fem-check\" averaging's by an FE solve even "
-                                  "without fem in the scene; \"none\" no estimate (saves "
+                                  "transient or first passage); \"fem-check\" averaging's "
+                                  "by an FE solve even without fem in the scene; \"none\" no estimate (saves "
                                   "the extra runs)", "choice", choices=ERROR_ESTIMATES),
     },
     "initial": {
