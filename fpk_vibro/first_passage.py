@@ -29,7 +29,7 @@ import numpy as np
 from ._checks import check_float, invalid
 from .model import VibroImpactSystem
 
-__all__ = ["FirstPassage", "parse_start", "check_energy", "check_times", "survival_at",
+__all__ = ["FirstPassage", "ESTIMATORS", "parse_start", "check_energy", "check_times", "survival_at",
            "merge_requested", "MAX_TIMES"]
 
 #: Most requested times accepted.
@@ -155,6 +155,12 @@ def parse_start(where: str, system: VibroImpactSystem, start: Any, energy: float
                   start)
 
 
+#: Each method's first-passage estimator, ``estimator(fp, reference)`` (finite
+#: elements set ``_estimate`` when they solve).  The registry, above every method,
+#: provides them when the package loads: this module lies below the methods.
+ESTIMATORS: dict[str, Callable[[Any, Any], dict[str, Any]]] = {}
+
+
 @dataclass
 class FirstPassage:
     """Mean first-passage time and reliability of one method for one start.
@@ -224,26 +230,19 @@ class FirstPassage:
             A ``reference`` given to a method other than averaging, or one of another
             method, energy or start.
         """
-        if reference is not None:
-            if self.method != "averaging":
-                raise ValueError(f"{self.method}.first_passage: error_estimate takes a "
-                                 "reference for averaging only")
-            from .averaging.first_passage import model_error
-            est = model_error(self, reference)
-            if self._estimate is None:
-                self._estimate = est
-            return dict(est)
+        if reference is not None and self.method != "averaging":
+            raise ValueError(f"{self.method}.first_passage: error_estimate takes a "
+                             "reference for averaging only")
+        if reference is None and self._estimate is not None:
+            return dict(self._estimate)
+        estimator = ESTIMATORS.get(self.method)
+        if estimator is None:
+            raise ValueError(f"{self.method}.first_passage: no error estimate (this "
+                             "result was not made by fem.first_passage)")
+        est = estimator(self, reference)
         if self._estimate is None:
-            if self.method == "montecarlo":
-                from .montecarlo._first_passage import error_estimate
-                self._estimate = error_estimate(self)
-            elif self.method == "averaging":
-                from .averaging.first_passage import model_error
-                self._estimate = model_error(self)
-            else:
-                raise ValueError(f"{self.method}.first_passage: no error estimate (this "
-                                 "result was not made by fem.first_passage)")
-        return dict(self._estimate)
+            self._estimate = est
+        return dict(est)
 
     def mean_time(self, x0: Any = None, y0: Any = None) -> Any:
         """τ from the point (x0, y0) (arrays broadcast); no arguments: τ for the start.

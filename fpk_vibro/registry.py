@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ._checks import InputError
+from .first_passage import ESTIMATORS as PASSAGE_ESTIMATORS
 from .model import VibroImpactSystem
 from .references import provide
 
@@ -197,9 +198,10 @@ def _exact_solver(mode: str):
     return lambda system, **_: gibbs(system)
 
 
-def _fem_reference(system: VibroImpactSystem) -> Any:
-    """The FE density other methods are checked against (averaging's model error)."""
-    return _fem_solver("stationary")(system)
+def _fem_reference(system: VibroImpactSystem, **options: Any) -> Any:
+    """The FE density other methods are checked against (averaging's model error):
+    ``fem.stationary(system, **options)``, the default solve without options."""
+    return _fem_solver("stationary")(system, **options)
 
 
 def _fem_transient_reference(system: VibroImpactSystem, *, initial: Any, times: Any,
@@ -209,6 +211,18 @@ def _fem_transient_reference(system: VibroImpactSystem, *, initial: Any, times: 
     return _fem_solver("transient")(system, initial=initial, times=times, rtol=rtol)
 
 
+def _montecarlo_passage_estimate(fp: Any, reference: Any = None) -> dict[str, Any]:
+    from .montecarlo._first_passage import error_estimate
+    return error_estimate(fp)
+
+
+def _averaging_passage_estimate(fp: Any, reference: Any = None) -> dict[str, Any]:
+    from .averaging.first_passage import model_error
+    return model_error(fp, reference)
+
+
+PASSAGE_ESTIMATORS.update(montecarlo=_montecarlo_passage_estimate,
+                          averaging=_averaging_passage_estimate)
 provide("fem", _fem_reference)
 provide("fem-transient", _fem_transient_reference)
 provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(system, **kw))

@@ -49,7 +49,7 @@ from .solution import FEMSolution
 from .solve import solve_stationary
 from .strip_mesh import load_strip_mesh
 
-__all__ = ["Discretisation", "build", "default_mesh"]
+__all__ = ["Discretisation", "build", "default_mesh", "discretise"]
 
 
 class Discretisation:
@@ -220,3 +220,16 @@ def _build(system: VibroImpactSystem, opts: Any) -> Discretisation:
     return Discretisation(system, m, degree, L, M, np.asarray(M.sum(axis=0)).ravel(), None,
                           None, basis.doflocs, positivity, dom.walls, y_max=dom.y_max,
                           seconds=time.perf_counter() - t0)
+
+
+def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
+               ny: int | None = None, y_max: float | None = None, degree: int | None = None,
+               element: str = "quad", grading: float = 0.0,
+               wall_grading: float | None = None,
+               positivity: bool | str = False) -> Discretisation:
+    """Build the mesh and assemble (L, M) exactly as :func:`fpk_vibro.fem.stationary`
+    does, for a transient (:func:`fpk_vibro.fem.transient`, also importable from
+    :mod:`fpk_vibro.fem.transient`); with ``positivity`` the positive generator and
+    the lumped masses instead.  Options as in :class:`fpk_vibro.fem.Options`."""
+    from .options import Options
+    return build(system, Options.prepare(system, "transient", locals())[0])

@@ -10,7 +10,7 @@ import scipy.sparse.linalg as spla
 
 from .._checks import check_float
 from ..model import VibroImpactSystem
-from .discretisation import Discretisation
+from .discretisation import Discretisation, discretise
 
 __all__ = ["relaxation_time"]
 
@@ -31,7 +31,6 @@ def relaxation_time(system: VibroImpactSystem, *, tol: float = 1e-3,
     computed, sorted by |Re|).
     """
     check_float("tol", tol, 0.0, 1.0, hi_open=True, where="fem.relaxation_time")
-    from .transient import discretise
     disc = discretisation or discretise(system, **mesh_kw)
     sigma = -1e-6
     vals = spla.eigs(disc.L.tocsc(), k=6, M=disc.M.tocsc(), sigma=sigma,

@@ -49,7 +49,7 @@ from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..progress import Progress
 from ..solution import Solution, TransientResult
-from .discretisation import Discretisation, build
+from .discretisation import Discretisation, build, discretise
 from .relaxation import relaxation_time
 from .solve import factorised as step_solver, grid_nested_dissection, is_p1, nd_lu
 from .solution import FEMSolution
@@ -70,18 +70,6 @@ GROW_MIN = 1.5
 LADDER = 2
 #: Factorised step matrices kept (least recently used dropped first).
 MAX_FACTORS = 16
-
-
-def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
-               ny: int | None = None, y_max: float | None = None, degree: int | None = None,
-               element: str = "quad", grading: float = 0.0,
-               wall_grading: float | None = None,
-               positivity: bool | str = False) -> Discretisation:
-    """Build the mesh and assemble (L, M) exactly as :func:`stationary` does; with
-    ``positivity`` (see the module docstring) the positive generator and the
-    lumped masses instead.  Options as in :class:`fpk_vibro.fem.Options`."""
-    from .options import Options
-    return build(system, Options.prepare(system, "transient", locals())[0])
 
 
 def _initial_vector(disc: Discretisation, initial: Any) -> np.ndarray:
