@@ -212,7 +212,7 @@ def _fem_transient_reference(system: VibroImpactSystem, *, initial: Any, times: 
 
 
 def _montecarlo_passage_estimate(fp: Any, reference: Any = None) -> dict[str, Any]:
-    from .montecarlo._first_passage import error_estimate
+    from .montecarlo._first_passage_estimate import error_estimate
     return error_estimate(fp)
 
 

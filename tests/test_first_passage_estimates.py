@@ -23,7 +23,7 @@ from fpk_vibro import VibroImpactSystem, averaging, fem, references
 from fpk_vibro import montecarlo as mc
 from fpk_vibro._checks import InputError
 from fpk_vibro.first_passage import survival_at
-from fpk_vibro.montecarlo import _first_passage as MCFP
+from fpk_vibro.montecarlo import _first_passage_estimate as MCFP   # where the second run is looked up
 
 #: (system, H_c): τ from 9 to 80, impacts with r = 0.5 (where the bias is largest and
 #: of order ~½) and 0.8, no walls (order ~1), the paper's case (bias ~0.1 %).
