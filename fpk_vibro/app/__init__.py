@@ -8,7 +8,8 @@ solutions and their files) and nothing in the core imports from here:
 - :mod:`fpk_vibro.app.runner` with :mod:`~fpk_vibro.app.outdir`,
   :mod:`~fpk_vibro.app.resume`, :mod:`~fpk_vibro.app.interrupt`,
   :mod:`~fpk_vibro.app.pool` and :mod:`~fpk_vibro.app.scheduler` — a run of a scene,
-  on worker processes or on Dask;
+  on worker processes or on Dask, and :mod:`~fpk_vibro.app.estimates`, every answer's
+  error estimate in it;
 - :mod:`fpk_vibro.app.studies`, :mod:`~fpk_vibro.app.study_plots`,
   :mod:`~fpk_vibro.app.plotting`, :mod:`~fpk_vibro.app.benchmarks` — studies,
   figures and timings;

@@ -27,7 +27,7 @@ QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage"
 #: Quantities of a stationary scene only.
 STATIONARY_ONLY = ("impacts", "first_passage")
 FORMATS = ("json", "npz", "png", "vtu", "nc")
-#: study.error_estimates: how each answer's error is estimated (runner._estimate_record).
+#: study.error_estimates: how each answer's error is estimated (fpk_vibro.app.estimates).
 ERROR_ESTIMATES = ("auto", "fem-check", "none")
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
              "right.position", "right.r")

@@ -1,0 +1,109 @@
+"""Every answer of a scene run with its error estimate, as ``study.error_estimates``
+asks ("auto", "fem-check", "none"; :data:`fpk_vibro.app.scene_keys.ERROR_ESTIMATES`):
+each method's own estimate, averaging's model error against the scene's own FE
+answer (or its indicator model, or an FE check), per time for a transient and beside
+each first passage; an estimate that fails or is interrupted is recorded with its
+reason and the answers stay."""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from .._checks import InputError
+from ..keys import ESTIMATE_KEYS, JUDGED
+from .scenes import Scene
+
+__all__ = ["add_estimates", "AVERAGING_WARN"]
+
+
+#: Averaging's estimated model error above which a run warns (one line per point).
+AVERAGING_WARN = 0.01
+
+
+def _estimate_of(method: str, sol: Any, reference: Any, how: str) -> dict[str, Any]:
+    """The estimate of one answer, as ``study.error_estimates`` (``how``) asks.
+
+    Averaging's model error is measured against ``reference``, the scene's own FE
+    answer at the same point (and time), when the scene runs fem; otherwise "auto"
+    takes its indicator model (stationary; no FE solve: compute only what the scene
+    asks for) and "fem-check" an FE solve of its own."""
+    if method == "averaging":
+        if reference is not None:
+            return sol.error_estimate(reference=reference)
+        if how == "fem-check":
+            return sol.error_estimate()
+        if getattr(sol, "time", None) is not None:
+            raise NotImplementedError(
+                f"{method}: a transient's model error needs an FE transient: add fem to the "
+                "scene or set study.error_estimates = \"fem-check\"")
+        return sol.error_estimate(by="indicators")
+    return sol.error_estimate()
+
+
+def _estimate_record(method: str, sol: Any, reference: Any = None, how: str = "auto"
+                     ) -> dict[str, Any]:
+    """``error_estimate`` (every figure, None where unbounded; ``not_computed`` with the
+    reason where none could be made) and, for averaging beyond
+    :data:`AVERAGING_WARN`, a ``warning`` naming its weakest assumption."""
+    if how == "none":
+        return {}
+    try:
+        est = _estimate_of(method, sol, reference, how)
+    except (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError) as exc:
+        # e.g. the richer FE level beyond the budget, a method without an estimate, a
+        # check solve that failed: the answer stays, its record says why it has no estimate
+        return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
+    rec = {k: (float(est[k]) if math.isfinite(float(est[k])) else None)
+           for k in ESTIMATE_KEYS if k in est}
+    rec["assumes"] = est.get("assumes", "")
+    out: dict[str, Any] = {"error_estimate": rec}
+    worst = max((float(est[k]) for k in JUDGED if k in est), default=0.0)
+    if method == "averaging" and worst > AVERAGING_WARN:
+        at = "" if getattr(sol, "time", None) is None else f" at t = {sol.time:g}"
+        out["warning"] = (f"{method}: estimated model error {worst:.2g}{at} > "
+                          f"{AVERAGING_WARN:g} (its weakest assumption: "
+                          f"{sol.validity()['weakest']})")
+    return out
+
+
+def _passage_estimate(method: str, fp: Any, reference: Any, how: str) -> dict[str, Any]:
+    """A first passage's estimate as ``study.error_estimates`` asks: averaging's model
+    error against the scene's FE first passage, or ("fem-check") an FE solve of its
+    own; with neither (as for a transient) none is made behind the scene's back."""
+    if how == "none":
+        return {}
+    try:
+        if method == "averaging" and reference is None and how != "fem-check":
+            raise NotImplementedError(
+                f"{method}: the first passage's model error needs an FE first passage: add "
+                "fem to the scene or set study.error_estimates = \"fem-check\"")
+        est = fp.error_estimate(reference=reference)
+    except (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError) as exc:
+        return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
+    return {"error_estimate": {
+        k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+        for k, v in est.items() if isinstance(v, (int, float, str))}}
+
+
+def add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any],
+                   passages: dict[str, Any] | None = None) -> None:
+    """Every answer's estimate into its record (per time for a transient; a first
+    passage's beside it), once every method has run (averaging's against the
+    scene's FE answers, whatever the order of study.methods)."""
+    for method, fp in (passages or {}).items():
+        ref = passages.get("fem") if method == "averaging" else None
+        record["methods"][method]["first_passage"].update(
+            _passage_estimate(method, fp, ref, scene.error_estimates))
+    fem = solutions.get("fem")
+    for method, sol in solutions.items():
+        entry = record["methods"][method]
+        if not scene.transient:
+            entry.update(_estimate_record(method, sol, fem if method != "fem" else None,
+                                          scene.error_estimates))
+            continue
+        for k, (rec, snap) in enumerate(zip(entry["at"], sol)):
+            ref = fem[k] if fem is not None and method != "fem" else None
+            rec.update(_estimate_record(method, snap, ref, scene.error_estimates))
+            warning = rec.pop("warning", None)
+            if warning and k == len(entry["at"]) - 1:      # one line per point
+                entry["warning"] = warning
