@@ -40,8 +40,10 @@ def held_out_systems(draw):
 def test_indicator_estimate_within_3x_on_held_out_systems():
     """Claimed (error_model docstring, docs/measurements.md): where the true error
     exceeds 0.2 %, within 3× for E[H], E[y²], P_impact on ≥ 90 % of the moments and
-    for E[x²] on ≥ 60 % (its sign changes with the geometry), never off by more than
-    20×; where it is below 0.2 %, the estimate is below 1 %."""
+    for E[x²] on ≥ 60 % (its sign changes with the geometry: the signed model is
+    within 3× on 91 % of the calibration's held-out draw but on 6 of these 8, under
+    by ~4× on two), never off by more than 20×; where it is below 0.2 %, the
+    estimate is below 1 %."""
     seen: list[tuple[str, float, float, VibroImpactSystem]] = []
 
     @settings(max_examples=8, deadline=None, derandomize=True, database=None,
