@@ -45,6 +45,22 @@ def _timed(f: Callable[[], Any]) -> tuple[Any, float]:
     return out, time.perf_counter() - t0
 
 
+def _add_row(rows: list, log, widths: tuple[int, int], method: str, setting: str,
+             error: float, seconds: float, judged: list, **extra: Any) -> None:
+    """One work–precision row, logged; with ``judged`` (the answer's solutions, one per
+    time of a transient) the answer's own estimate, its largest over them and
+    :data:`KEYS`, and the effectivity (true error / estimate) beside it."""
+    row = {"method": method, "setting": setting, "error": error, "seconds": seconds, **extra}
+    note = ""
+    if judged:
+        e = max(float(s.error_estimate()[k]) for s in judged for k in KEYS)
+        row.update(estimate=e, effectivity=error / e if e > 0 else None)
+        note = f"  estimate {e:.2e}"
+    rows.append(row)
+    log(f"  {method:<{widths[0]}s} {setting:<{widths[1]}s} error {error:.2e}{note}  "
+        f"{seconds:7.2f} s")
+
+
 def _truth(system: VibroImpactSystem, quick: bool, log) -> dict[str, Any]:
     from .. import exact, fem
     try:
@@ -73,16 +89,8 @@ def convergence_study(scene: Scene, *, quick: bool = False, log=print) -> dict[s
 
     def add(method: str, setting: str, moments: dict[str, float], seconds: float,
             sol: Any = None, **extra):
-        rows.append({"method": method, "setting": setting, "error": _err(moments, T),
-                     "seconds": seconds, **extra})
-        note = ""
-        if sol is not None:     # effectivity: the true error against the estimate
-            est = sol.error_estimate()
-            e = max(float(est[k]) for k in KEYS)
-            rows[-1].update(estimate=e, effectivity=rows[-1]["error"] / e if e > 0 else None)
-            note = f"  estimate {e:.2e}"
-        log(f"  {method:<11s} {setting:<26s} error {rows[-1]['error']:.2e}{note}  "
-            f"{seconds:7.2f} s")
+        _add_row(rows, log, (11, 26), method, setting, _err(moments, T), seconds,
+                 [sol] if sol is not None else [], **extra)
 
     methods = [m for m in scene.methods if m != "exact"]
     if "fem" in methods:
@@ -164,15 +172,9 @@ def transient_convergence_study(scene: Scene, *, quick: bool = False, log=print
 
     def add(method: str, setting: str, sols: list, seconds: float, estimate: bool = False,
             **extra):
-        rows.append({"method": method, "setting": setting,
-                     "error": _err_t(_moments_over_time(sols), T), "seconds": seconds, **extra})
-        note = ""
-        if estimate:     # effectivity: the true error against the answer's own estimate
-            e = max(float(s.error_estimate()[k]) for s in sols for k in KEYS)
-            rows[-1].update(estimate=e, effectivity=rows[-1]["error"] / e if e > 0 else None)
-            note = f"  estimate {e:.2e}"
-        log(f"  {method:<15s} {setting:<28s} error {rows[-1]['error']:.2e}{note}  "
-            f"{seconds:7.2f} s")
+        _add_row(rows, log, (15, 28), method, setting,
+                 _err_t(_moments_over_time(sols), T), seconds, sols if estimate else [],
+                 **extra)
 
     methods = [m for m in scene.methods if m != "exact"]
     if "fem" in methods:
