@@ -1,3 +1,5 @@
+from __future__ import annotations
+
 import numpy as np
 import pytest
 
@@ -7,6 +9,14 @@ from fpk_vibro import VibroImpactSystem
 @pytest.fixture
 def paper92():
     return VibroImpactSystem.paper(r=0.92)
+
+
+def paper_tables(D2: float | None = 0.01, r: float = 0.92) -> str:
+    """The paper's system as a scene's [system] and [barriers] tables (D2 None: not
+    written, the model's default), for the scenes the tests write."""
+    d2 = "" if D2 is None else f"D2 = {D2!r}\n"
+    return ("[system]\na = 1.0\nb = 0.2\nc = 0.025\nD1 = 0.01\n" + d2 +
+            f"\n[barriers]\ndelta = 0.6\nr = {r!r}\n")
 
 
 def gibbs_cases():

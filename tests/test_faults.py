@@ -13,16 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SWEEP = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
+from conftest import paper_tables
+
+SWEEP = paper_tables() + """
 [study]
 methods = ["montecarlo"]
 quantities = ["moments"]
@@ -232,15 +225,7 @@ def tiny_fs(tmp_path):
     subprocess.run(["umount", str(mnt)], capture_output=True)
 
 
-AVG = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
+AVG = paper_tables(D2=None) + """
 [study]
 methods = ["averaging"]
 quantities = ["energy", "x", "y", "joint", "moments"]

@@ -24,6 +24,7 @@ from fpk_vibro import montecarlo as mc
 from fpk_vibro._checks import InputError
 from fpk_vibro.first_passage import survival_at
 from fpk_vibro.montecarlo import _first_passage_estimate as MCFP   # where the second run is looked up
+from conftest import paper_tables
 
 #: (system, H_c): τ from 9 to 80, impacts with r = 0.5 (where the bias is largest and
 #: of order ~½) and 0.8, no walls (order ~1), the paper's case (bias ~0.1 %).
@@ -164,18 +165,7 @@ def test_averaging_estimate_is_infinite_with_fe_reason_where_fe_refuses():
     assert "energy" in est["reference"] and "\n" not in est["reference"]
 
 
-SCENE = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.01
-
-[barriers]
-delta = 0.6
-r = 0.92
-
+SCENE = paper_tables() + """
 [study]
 name = "fp"
 methods = ["fem", "averaging", "montecarlo"]

@@ -13,21 +13,11 @@ from fpk_vibro._checks import InputError
 from fpk_vibro.options import MODES
 from fpk_vibro.app.runner import run_scene
 from fpk_vibro.app.scenes import SceneError, check_scene, load_scene
+from conftest import paper_tables
 
 PAPER = VibroImpactSystem.paper(r=0.92)
 
-SCENE = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.0
-
-[barriers]
-delta = 0.6
-r = 0.92
-
+SCENE = paper_tables(D2=0.0) + """
 [study]
 methods = ["averaging"]
 quantities = ["energy", "first_passage"]

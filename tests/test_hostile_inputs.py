@@ -14,6 +14,7 @@ import pytest
 from fpk_vibro import VibroImpactSystem, averaging, exact, fem, montecarlo
 from fpk_vibro import cli
 from fpk_vibro.scenes import SceneError, check_scene, parse_scene
+from conftest import paper_tables
 
 PAPER = VibroImpactSystem.paper(r=0.92)
 INIT = {"mean": (0.0, 1.0), "std": (0.05, 0.05)}
@@ -273,15 +274,7 @@ def test_force_lifts_the_limits():
 
 
 # -- the command line -------------------------------------------------------------------
-GOOD = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
+GOOD = paper_tables(D2=None) + """
 [study]
 methods = ["averaging"]
 quantities = ["moments"]

@@ -11,6 +11,7 @@ pytest.importorskip("h5netcdf")
 
 from fpk_vibro import VibroImpactSystem, Wall, averaging, cli, exact, fem, montecarlo  # noqa: E402
 from fpk_vibro.labelled import moments_frame, run_dataset  # noqa: E402
+from conftest import paper_tables
 
 S = VibroImpactSystem.paper(r=0.92)
 INIT = {"mean": (0.1, 0.3), "std": (0.1, 0.2)}
@@ -43,16 +44,7 @@ def test_solution_round_trips_through_netcdf(kind, tmp_path):
     assert ds.attrs["fpk_vibro_version"]
 
 
-SCENE = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
+SCENE = paper_tables() + """
 [study]
 methods = ["averaging", "montecarlo"]
 quantities = ["energy", "x", "moments"]

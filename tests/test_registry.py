@@ -11,6 +11,7 @@ import pytest
 from fpk_vibro import VibroImpactSystem, methods
 from fpk_vibro._checks import InputError
 from fpk_vibro.registry import FEATURES, Method, capability_table, features_of
+from conftest import paper_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 DOUBLE_WELL = VibroImpactSystem(a=-1.0, b=1.0, c=0.1, D1=0.05, delta=2.0, r=0.9)
@@ -54,17 +55,7 @@ def test_capability_table_is_the_generated_one():
         "docs/guide/methods.md is stale: regenerate with `fpk-vibro methods`"
 
 
-TOY_SCENE = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-
-[barriers]
-delta = 0.6
-r = 1.0
-
+TOY_SCENE = paper_tables(D2=None, r=1.0) + """
 [study]
 name = "toy"
 methods = ["toy", "exact"]

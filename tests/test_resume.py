@@ -21,16 +21,9 @@ import pytest
 
 from fpk_vibro import cli
 from test_faults import SWEEP
+from conftest import paper_tables
 
-AVG = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
+AVG = paper_tables(D2=None) + """
 [study]
 methods = ["averaging"]
 quantities = ["energy", "x", "moments"]

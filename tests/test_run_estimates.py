@@ -12,19 +12,9 @@ import pytest
 
 from fpk_vibro.app.runner import run_scene
 from fpk_vibro.app.scenes import SceneError, load_scene
+from conftest import paper_tables
 
-SCENE = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.01
-
-[barriers]
-delta = 0.6
-r = 0.92
-
+SCENE = paper_tables() + """
 [study]
 name = "e"
 methods = {methods}

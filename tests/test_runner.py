@@ -9,19 +9,9 @@ import pytest
 
 from fpk_vibro.runner import run_scene
 from fpk_vibro.scenes import load_scene
+from conftest import paper_tables
 
-AVG_ONLY = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.0
-
-[barriers]
-delta = 0.6
-r = 0.92
-
+AVG_ONLY = paper_tables(D2=0.0) + """
 [study]
 methods = ["averaging"]
 quantities = ["energy"]

@@ -4,19 +4,9 @@ import textwrap
 import pytest
 
 from fpk_vibro.scenes import SceneError, check_scene, load_scene, parse_scene, schema_table
+from conftest import paper_tables
 
-GOOD = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-D2 = 0.01
-
-[barriers]
-delta = 0.6
-r = 0.92
-
+GOOD = paper_tables() + """
 [study]
 methods = ["averaging"]
 quantities = ["energy", "moments"]

@@ -13,6 +13,7 @@ from fpk_vibro import VibroImpactSystem, Wall, averaging, cli, exact, fem, monte
 from fpk_vibro._checks import InputError
 from fpk_vibro.scenes import SceneError, check_scene, parse_scene
 from fpk_vibro.solution import Solution
+from conftest import paper_tables
 
 #: The densities and their point arguments (fpk_vibro.solution._POINT_ARGS).
 _POINT_ARGS = {"pdf_energy": ("H",), "pdf_joint": ("x", "y"), "pdf_x": ("x",),
@@ -160,15 +161,7 @@ def test_show_marks_a_partial_monte_carlo_point(tmp_path, capsys):
 
 
 # -- --quiet prints nothing, not even meshio's warning ----------------------------------
-FEM_VTU = """
-[system]
-a = 1.0
-b = 0.2
-c = 0.025
-D1 = 0.01
-[barriers]
-delta = 0.6
-r = 0.92
+FEM_VTU = paper_tables(D2=None) + """
 [study]
 methods = ["fem"]
 quantities = ["moments"]
