@@ -236,3 +236,32 @@ def test_an_interrupted_transient_keeps_two_standard_errors(monkeypatch):
     assert math.isnan(est["bias"]) and "interrupted" in est["assumes"]
     m, se = run[0].moments(), run[0].moments_se()
     assert est["E_H"] == 2 * se["E_H"] / m["E_H"]
+
+
+def test_a_second_run_that_blows_up_falls_back_to_half_the_step(monkeypatch):
+    """Non-finite paths at 2 dt (FloatingPointError) are a refusal like a stability
+    limit: the second run is at dt/2; stopped there too, one InputError names both
+    (which a scene run records as not computed, keeping the answer)."""
+    from fpk_vibro._checks import InputError
+    from fpk_vibro.montecarlo.solution import MonteCarloSolution
+    sol = montecarlo.stationary(VibroImpactSystem.paper(), n_paths=256, t_sample=20.0,
+                                seed=5, progress=False)
+    real, steps = MonteCarloSolution.rerun, []
+
+    def blows_up_above(limit):
+        def rerun(system, *, dt, **kw):
+            steps.append(dt)
+            if dt > limit:
+                raise FloatingPointError("montecarlo.stationary: non-finite states")
+            return real(system, dt=dt, **kw)
+        return staticmethod(rerun)
+    monkeypatch.setattr(MonteCarloSolution, "rerun", blows_up_above(sol.dt))
+    est = sol.error_estimate()
+    assert steps == [2 * sol.dt, sol.dt / 2] and "dt/2" in est["assumes"]
+    assert all(math.isfinite(est["bias"][k]) for k in ("E_H", "E_x2", "E_y2"))
+    other = montecarlo.stationary(VibroImpactSystem.paper(), n_paths=256, t_sample=20.0,
+                                  seed=6, progress=False)
+    monkeypatch.setattr(MonteCarloSolution, "rerun", blows_up_above(0.0))
+    with pytest.raises(InputError, match=r"2 dt: .*non-finite.*; dt/2: .*non-finite") as exc:
+        other.error_estimate()
+    assert "\n" not in str(exc.value)

@@ -13,6 +13,7 @@ import numpy as np
 from .. import _checks
 from ..first_passage import FirstPassage, survival_at
 from ._first_passage import first_passage
+from .estimate import second_run
 
 __all__ = ["error_estimate", "BIAS_ORDER"]
 
@@ -79,20 +80,15 @@ def error_estimate(fp: FirstPassage) -> dict[str, Any]:
               t_max=float(info["t_max"]) if info.get("n_censored", 0) else None,
               bridge=info.get("crossing") != "step ends", progress=False)
     t0 = time.perf_counter()
-    refused = []
-    for step, h in (("2 dt", 2.0 * dt), ("dt/2", 0.5 * dt)):
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)   # censoring: said once
-                other = first_passage(fp.system, dt=h, **kw)
-            break
-        except (_checks.InputError, FloatingPointError) as exc:
-            refused.append(f"{step}: {' '.join(str(exc).split())}")
-    else:
-        only["assumes"] = ("2 standard errors only: the second run was refused ("
-                           + "; ".join(refused) + "), so the time-step bias is not estimated")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)       # censoring: said once
+            other, step = second_run(lambda h: first_passage(fp.system, dt=h, **kw), dt)
+    except _checks.InputError as exc:
+        only["assumes"] = f"2 standard errors only: {exc}, so the time-step bias is not estimated"
         only["seconds"] = time.perf_counter() - t0
         return only
+    h = 2.0 * dt if step == "2 dt" else 0.5 * dt
     seconds = time.perf_counter() - t0
     f = 1.0 / (1.0 - (h / dt) ** BIAS_ORDER)
     bias = f * (tau - other.mean)

@@ -44,7 +44,8 @@ from typing import Any
 from .._checks import InputError
 from ..keys import JUDGED, moment_scale
 
-__all__ = ["error_estimate", "second_run", "shared_second_run", "bias_factor", "JUDGED"]
+__all__ = ["error_estimate", "second_run", "shared_second_run", "bias_factor", "STOPPED",
+           "JUDGED"]
 
 #: What a member's second-run source gives: (the second run's solution at the same
 #: time, the bias factor, "2 dt" or "dt/2", seconds the second run took).
@@ -81,13 +82,32 @@ def bias_factor(steps: Sequence[tuple[float, float]], steps2: Sequence[float]) -
     return S / (S - S2)
 
 
+#: What stops a second run at a step: refused (beyond the stability limit or the
+#: budget, InputError) or blown up (non-finite paths, FloatingPointError).
+STOPPED = (InputError, FloatingPointError)
+
+
+def _line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
+
+
 def second_run(run: Callable[[float], Any], dt: float) -> tuple[Any, str]:
-    """``run(2 dt)``, or ``run(dt/2)`` where 2 dt is refused (InputError); with "2 dt" or
-    "dt/2"."""
+    """``run(2 dt)``, or ``run(dt/2)`` where 2 dt is refused or blows up
+    (:data:`STOPPED`); with "2 dt" or "dt/2".
+
+    Raises
+    ------
+    InputError
+        Where dt/2 is stopped too: one line naming both reasons.
+    """
     try:
         return run(2.0 * dt), "2 dt"
-    except InputError:
-        return run(0.5 * dt), "dt/2"
+    except STOPPED as coarse:
+        try:
+            return run(0.5 * dt), "dt/2"
+        except STOPPED as fine:
+            raise InputError(f"the second run was refused (2 dt: {_line(coarse)}; dt/2: "
+                             f"{_line(fine)})", name="dt") from None
 
 
 def shared_second_run(run: Callable[[float], Any], dt: float,
