@@ -18,6 +18,13 @@ __all__ = ["add_estimates", "AVERAGING_WARN"]
 
 #: Averaging's estimated model error above which a run warns (one line per point).
 AVERAGING_WARN = 0.01
+#: What an estimate that cannot be made raises (no estimate for the kind, refused by
+#: the budget, a check solve that failed): recorded as ``not_computed``, the answer kept.
+NOT_MADE = (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError)
+
+
+def _not_made(exc: BaseException) -> dict[str, Any]:
+    return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
 
 
 def _estimate_of(method: str, sol: Any, reference: Any, how: str) -> dict[str, Any]:
@@ -49,10 +56,8 @@ def _estimate_record(method: str, sol: Any, reference: Any = None, how: str = "a
         return {}
     try:
         est = _estimate_of(method, sol, reference, how)
-    except (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError) as exc:
-        # e.g. the richer FE level beyond the budget, a method without an estimate, a
-        # check solve that failed: the answer stays, its record says why it has no estimate
-        return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
+    except NOT_MADE as exc:
+        return _not_made(exc)
     rec = {k: (float(est[k]) if math.isfinite(float(est[k])) else None)
            for k in ESTIMATE_KEYS if k in est}
     rec["assumes"] = est.get("assumes", "")
@@ -78,8 +83,8 @@ def _passage_estimate(method: str, fp: Any, reference: Any, how: str) -> dict[st
                 f"{method}: the first passage's model error needs an FE first passage: add "
                 "fem to the scene or set study.error_estimates = \"fem-check\"")
         est = fp.error_estimate(reference=reference)
-    except (NotImplementedError, InputError, ValueError, RuntimeError, MemoryError) as exc:
-        return {"error_estimate": {"not_computed": f"{type(exc).__name__}: {exc}"}}
+    except NOT_MADE as exc:
+        return _not_made(exc)
     return {"error_estimate": {
         k: (None if isinstance(v, float) and not math.isfinite(v) else v)
         for k, v in est.items() if isinstance(v, (int, float, str))}}
