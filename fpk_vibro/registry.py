@@ -45,7 +45,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ._checks import InputError
+from ._checks import InputError, show
 from .first_passage import ESTIMATORS as PASSAGE_ESTIMATORS
 from .model import VibroImpactSystem
 from .references import provide
@@ -101,6 +101,12 @@ class Method:
     study: str = ""
     benchmark: str = ""
 
+    def __post_init__(self) -> None:
+        # ``solver(mode)`` refuses a mode the method does not declare, whatever the
+        # factory would return (a mode is declared once: ``modes``)
+        factory = getattr(self.solver, "factory", self.solver)
+        object.__setattr__(self, "solver", _DeclaredModes(self.name, self.modes, factory))
+
     def options_class(self) -> Any:
         """The Options class (imports the method), or None."""
         return None if self.options is None else self.options()
@@ -131,6 +137,31 @@ class Method:
             why = self.check(system, mode, tuple(quantities))
             if why:
                 raise InputError(f"{self.name}: {why}", where=self.name, name="system")
+
+
+class _DeclaredModes:
+    """A method's ``solver(mode)``: the factory's solver for a declared mode, else one
+    :class:`InputError` naming ``mode``, the method's modes and the methods that have it."""
+
+    def __init__(self, name: str, modes: tuple[str, ...],
+                 factory: Callable[[str], Callable[..., Any]]) -> None:
+        self.name, self.modes, self.factory = name, modes, factory
+
+    def __call__(self, mode: str) -> Callable[..., Any]:
+        if not isinstance(mode, str) or mode not in self.modes:
+            others = [m.name for m in methods().values()
+                      if m.name != self.name and isinstance(mode, str) and mode in m.modes]
+            also = f"; {', '.join(others)} do" if others else ""
+            raise InputError(f"{self.name}: solver: mode must be one of {list(self.modes)}; "
+                             f"got {show(mode)}{also}", where=self.name, name="mode")
+        return self.factory(mode)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _DeclaredModes) and (self.name, self.modes, self.factory) \
+            == (other.name, other.modes, other.factory)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.modes, self.factory))
 
 
 _REGISTRY: dict[str, Method] = {}

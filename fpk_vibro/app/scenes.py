@@ -241,6 +241,7 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
         raise SceneError(f"study.quantities: {sorted(set(quantities) & set(STATIONARY_ONLY))} "
                          "are stationary only; remove them or study.times",
                          name="study.quantities")
+    _check_someone_gives(methods, quantities)
     fp = clean["first_passage"]
     if "first_passage" in quantities:
         if fp.get("energy") is None:
@@ -275,6 +276,18 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                                            STUDY_KEYS["study"]["error_estimates"].default),
                  formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
                  source=data)
+
+
+def _check_someone_gives(names: list[str], quantities: list[str]) -> None:
+    """Each quantity asked for is given by at least one method of the scene (a method
+    without it skips it; with none the scene would silently compute nothing)."""
+    registry = method_registry()
+    for q in quantities:
+        if not any(q in registry[m].quantities for m in names):
+            have = [m.name for m in registry.values() if q in m.quantities]
+            raise SceneError(f"study.quantities: {q!r} is given by none of study.methods "
+                             f"{list(names)}; add one of {', '.join(have)} or remove it",
+                             name="study.quantities")
 
 
 def check_scene(scene: Scene) -> list[dict[str, Any]]:

@@ -29,7 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 from scipy import integrate, linalg
 
-from .._checks import InputError
+from .._checks import InputError, invalid
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
                              parse_start, survival_at)
 from ..model import VibroImpactSystem, check_system
@@ -125,6 +125,11 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     check_system(where, system)
     H_c = check_energy(where, system, energy)
     kind, value = parse_start(where, system, start, H_c)
+    if kind == "gaussian":
+        x, y, w = _gauss_hermite(value)
+        if not np.sum(w[system.energy(x, y) < H_c]) > 0.0:
+            raise invalid(where, "start", f"a Gaussian with mass inside the safe set H < "
+                          f"{H_c:g}", start, "none of its quadrature nodes falls inside")
     requested = check_times(where, times)
     opts, _ = Options.prepare(system, "first_passage", locals())
     n_grid, n_cells = opts.n_grid, opts.n_cells

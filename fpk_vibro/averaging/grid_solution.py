@@ -70,8 +70,9 @@ class EnergyGridSolution(Solution):
         (:func:`fpk_vibro.averaging.model_error.transient_model_error`): the first call
         of any member of one :func:`transient` list solves ``fem.transient(...,
         rtol=1e-2)`` at all its times, for them all; ``reference``: an FE density at
-        this time (with an estimate, e.g. from ``fem.transient(..., rtol=...)``) used
-        instead, on the first call.
+        this time of the same system (with an estimate, e.g. from
+        ``fem.transient(..., rtol=...)``) used instead, replacing any estimate made
+        before.
 
         Returns
         -------
@@ -87,8 +88,10 @@ class EnergyGridSolution(Solution):
         NotImplementedError
             For a density not made by :func:`transient` (read from a file): its initial
             condition is unknown.
+        fpk_vibro._checks.InputError
+            A ``reference`` that is not an FE density of the same system at this time.
         """
-        if self._estimate is None:
+        if self._estimate is None or reference is not None:
             from ..keys import JUDGED
             from .model_error import transient_model_error
             self._estimate = transient_model_error(self, reference)

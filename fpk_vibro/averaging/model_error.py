@@ -31,7 +31,7 @@ import numpy as np
 
 from ..keys import JUDGED, moment_scale
 
-__all__ = ["judged_keys", "against", "unbounded", "l1", "TransientCheck",
+__all__ = ["check_reference", "judged_keys", "against", "unbounded", "l1", "TransientCheck",
            "transient_model_error", "TRANSIENT_RTOL", "TRANSIENT_ASSUMES"]
 
 #: fem.transient's accuracy goal for the transient's check (module docstring).
@@ -44,6 +44,33 @@ TRANSIENT_ASSUMES = (
 #: Added to the assumption when the initial condition has a zero std.
 WIDENED = ("; FE widens the initial condition's zero std to one cell, so until the "
            "packet has spread (a few periods) the check is against that wider packet")
+
+
+def check_reference(sol: Any, reference: Any, where: str) -> Any:
+    """``reference`` if it is a finite-element density of ``sol``'s very system (and,
+    for a transient's density, of its time); else one :class:`InputError` naming
+    ``reference`` (a string, a Monte Carlo answer or the FE answer of another system
+    would give a meaningless figure)."""
+    from .._checks import InputError, invalid
+    if getattr(reference, "kind", None) != "fem" or not callable(
+            getattr(reference, "error_estimate", None)):
+        raise invalid(where, "reference", "a finite-element solution (fem.stationary, or "
+                      "a member of fem.transient) of the same system", reference)
+    if reference.system != sol.system:
+        mine, theirs = sol.system.to_dict(), reference.system.to_dict()
+        keys = [k for k in mine if mine[k] != theirs.get(k)]
+        scalars = [k for k in keys if not isinstance(mine[k], dict)]   # walls follow them
+        diff = ", ".join(f"{k} = {theirs.get(k)!r} (not {mine[k]!r})"
+                         for k in (scalars or keys))
+        raise InputError(f"{where}: reference must solve the same system; it has {diff}",
+                         where=where, name="reference")
+    t_ref, t = reference.snapshot_time(), getattr(sol, "time", None)
+    if t_ref != (None if t is None else float(t)):
+        what = "a stationary density" if t_ref is None else f"at t = {t_ref}"
+        mine = "stationary" if t is None else f"at t = {float(t)}"
+        raise InputError(f"{where}: reference is {what}, this density is {mine}; give the "
+                         "FE density of the same time", where=where, name="reference")
+    return reference
 
 
 def judged_keys(sol: Any) -> list[str]:
@@ -169,10 +196,7 @@ def transient_model_error(sol: Any, reference: Any = None) -> dict[str, Any]:
     t0 = time.perf_counter()
     check = getattr(sol, "_check", None)
     if reference is not None:
-        t_ref = reference.snapshot_time()
-        if t_ref is None or t_ref != sol.time:
-            raise ValueError(f"error_estimate: reference is at t = {t_ref}, this density at "
-                             f"t = {sol.time}; give the FE density of the same time")
+        check_reference(sol, reference, f"{type(sol).__name__}.error_estimate")
         ref, what = reference, f"the given FE density ({type(reference).__name__})"
         assumes = check.assumes if check is not None else TRANSIENT_ASSUMES
     elif check is None:

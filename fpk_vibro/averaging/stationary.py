@@ -74,7 +74,9 @@ class AveragedSolution(Solution):
         Parameters
         ----------
         reference : FEMSolution, optional
-            An FE solution of the same system already at hand (``by="fem"`` only).
+            An FE solution of the same system already at hand (``by="fem"`` only; it
+            replaces any estimate made before).  Anything else (another method's
+            answer, another system's, a transient's member) is refused, naming it.
         by : {"fem", "indicators"}
             ``"fem"``: a finite-element check of the same system
             (:mod:`fpk_vibro.averaging.validity`; one FE solve on the first call,
@@ -98,7 +100,8 @@ class AveragedSolution(Solution):
         True
         """
         cache = "_indicator_estimate" if by == "indicators" else "_estimate"
-        if by not in ("fem", "indicators") or getattr(self, cache) is None:
+        if by not in ("fem", "indicators") or reference is not None \
+                or getattr(self, cache) is None:
             from .validity import estimate
             setattr(self, cache, estimate(self, reference, by))
         return dict(getattr(self, cache))

@@ -17,11 +17,13 @@ Jacobian (the operator itself).
 """
 from __future__ import annotations
 
+import math
 from typing import Any, Sequence
 
 import numpy as np
-from scipy import integrate, sparse
+from scipy import integrate, sparse, special
 
+from .._checks import InputError
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..orbits import orbit_nodes
@@ -31,6 +33,7 @@ from .energy_grid import check_coverage, energy_faces, initial_cell_masses
 from .grid_solution import EnergyGridSolution
 from .model_error import TransientCheck
 from .options import Options
+from .regimes import phi_rate
 from .stationary import AveragedSolution, solve
 
 __all__ = ["transient", "energy_faces", "averaged_operator", "initial_cell_masses"]
@@ -38,24 +41,53 @@ __all__ = ["transient", "energy_faces", "averaged_operator", "initial_cell_masse
 
 def averaged_operator(system: VibroImpactSystem, faces: np.ndarray,
                       stationary_solution: AveragedSolution) -> sparse.csr_matrix:
-    """Generator A with dp/dt = A p for cell-average densities p (see module docstring)."""
+    """Generator A with dp/dt = A p for cell-average densities p (module docstring).
+
+    The flux through the face between cells i and i + 1 is Scharfetter–Gummel's,
+
+        J = ½ σ²_f / Δc · [T_f/T_i B(ΔΦ) p_i − T_f/T_(i+1) B(−ΔΦ) p_(i+1)],
+
+    B(z) = z/(e^z − 1), ΔΦ = Φ(c_(i+1)) − Φ(c_i): exact where σ², T and Φ' are
+    constant across the two half-cells, it vanishes for the stationary ratio
+    p_(i+1)/p_i = T_(i+1)/T_i e^(−ΔΦ) (p_s is the exact discrete equilibrium) and
+    turns into upwind transport at the drift where Φ changes by much across a cell
+    (a start far above the stationary energies), without overflow.
+    """
     c = 0.5 * (faces[1:] + faces[:-1])
     h = np.diff(faces)
     f = faces[1:-1]                       # interior faces
     _, _, s2 = coefficients(system, f)
-    phi_c, phi_f = stationary_solution.phi(c), stationary_solution.phi(f)
+    dphi = phi_rise(stationary_solution, c[:-1], c[1:])
     T_c = orbit_nodes(system, c).period
     T_f = orbit_nodes(system, f).period
     k = 0.5 * s2 / np.diff(c)
-    # p_s(face)/p_s(centre) on either side, without forming p_s (it spans e^-60)
-    r_left = T_f / T_c[:-1] * np.exp(phi_c[:-1] - phi_f)
-    r_right = T_f / T_c[1:] * np.exp(phi_c[1:] - phi_f)
+    r_left = T_f / T_c[:-1] / special.exprel(dphi)        # T_f/T_i B(ΔΦ)
+    r_right = T_f / T_c[1:] / special.exprel(-dphi)       # T_f/T_(i+1) B(−ΔΦ)
     up = k * r_right / h[:-1]             # A[i, i+1]
     lo = k * r_left / h[1:]               # A[i+1, i]
     diag = np.zeros(c.size)
     diag[:-1] -= k * r_left / h[:-1]
     diag[1:] -= k * r_right / h[1:]
     return sparse.diags([lo, diag, up], [-1, 0, 1], format="csr")
+
+
+def phi_rise(st: AveragedSolution, lo: np.ndarray, hi: np.ndarray,
+             n_nodes: int = 8) -> np.ndarray:
+    """Φ(hi) − Φ(lo) for lo ≤ hi: the stationary solution's Φ up to its ``H_end``,
+    and above it the integral of Φ' = f = (2c J1 + δ)/J2 (Gauss–Legendre on each
+    interval).  ``st.phi`` extends Φ linearly beyond ``H_end``, right for the
+    stationary mass there (below e^-phi_cut) but not for a density that starts up
+    there, where the impacts' loss makes f grow with H."""
+    end = st.H_end
+    out = st.phi(np.minimum(hi, end)) - st.phi(np.minimum(lo, end))
+    above = hi > end
+    if np.any(above):
+        a, b = np.maximum(lo[above], end), hi[above]
+        t, w = np.polynomial.legendre.leggauss(n_nodes)
+        nodes = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * t
+        rate, _ = phi_rate(st.system, nodes.ravel(), st.n_theta)
+        out[above] += 0.5 * (b - a) * (rate.reshape(nodes.shape) @ w)
+    return out
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
@@ -110,6 +142,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     h = np.diff(faces)
     p0 = mass0 / mass0.sum() / h
     A = averaged_operator(system, faces, st)
+    _check_resolved(A, faces, st, "H_max" if opts.H_max is not None else "initial")
     t_sorted, where = np.unique(t_out, return_inverse=True)   # repeats: one output
     t_end = float(t_sorted[-1])
     if t_end > 0:
@@ -127,14 +160,60 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     return out
 
 
+#: The relative error of the grid's equilibrium E[H] (against the closed form) above
+#: which the grid is refused: it does not resolve the stationary density.
+EQUILIBRIUM_RTOL = 1e-2
+
+
+def _equilibrium_error(A: sparse.csr_matrix, faces: np.ndarray, st: AveragedSolution
+                       ) -> float:
+    """The relative error of the grid's equilibrium E[H] against the closed form's."""
+    p_eq = equilibrium(A, np.diff(faces))
+    if p_eq is None:
+        return math.inf
+    grid = EnergyGridSolution(st.system, faces=faces, density=p_eq)
+    return abs(float(grid.moments()["E_H"]) / float(st.moments()["E_H"]) - 1.0)
+
+
+def _check_resolved(A: sparse.csr_matrix, faces: np.ndarray, st: AveragedSolution,
+                    name: str) -> None:
+    """Refuse, in one line naming ``name`` (``initial`` when the initial energy set the
+    grid's top, else ``H_max``), an energy grid too coarse for the stationary density:
+    its discrete equilibrium's E[H] off the closed form's by more than
+    :data:`EQUILIBRIUM_RTOL` (a start far above the stationary energies stretches the
+    grid until the stationary density lies in a few cells).  The message names the
+    n_cells that would do, found by doubling (only on this path)."""
+    off = _equilibrium_error(A, faces, st)
+    if off <= EQUILIBRIUM_RTOL:
+        return
+    system, cells, most = st.system, faces.size - 1, Options.declared()["n_cells"].hi
+    need = cells
+    while need < most:
+        need = min(2 * need, most)
+        finer = energy_faces(system, float(faces[-1]), need)
+        if _equilibrium_error(averaged_operator(system, finer, st), finer, st) \
+                <= EQUILIBRIUM_RTOL:
+            break
+    else:
+        need = None
+    fix = (f"n_cells = {need}" if need else f"a start nearer the stationary energies "
+           f"(E[H] = {float(st.moments()['E_H']):.3g})"
+           + (" or a smaller H_max" if name == "H_max" else ""))
+    raise InputError(
+        f"averaging.transient: {name}: the energy grid up to H_max = {faces[-1]:.3g} "
+        f"({cells} cells) does not resolve the stationary density (its equilibrium's "
+        f"E[H] is {off:.2g} off): needs {fix}, or use montecarlo",
+        where="averaging.transient", name=name)
+
+
 def equilibrium(A: sparse.csr_matrix, h: np.ndarray) -> np.ndarray | None:
     """The operator's discrete equilibrium (zero flux through every face; p_s at the
-    cell centres), normalised to mass 1; None if a face coefficient under- or
-    overflows."""
+    cell centres), normalised to mass 1 (zero in cells it cannot reach: a face whose
+    upward coefficient underflows); None if a face coefficient is not finite."""
     lo, up = A.diagonal(-1) * h[1:], A.diagonal(1) * h[:-1]
     with np.errstate(divide="ignore", invalid="ignore"):
         logp = np.concatenate([[0.0], np.cumsum(np.log(lo) - np.log(up))])
-    if not np.all(np.isfinite(logp)):
+    if np.any(np.isnan(logp)) or np.any(logp == np.inf):
         return None
     p = np.exp(logp - logp.max())
     return p / (p @ h)
@@ -175,7 +254,8 @@ def _integrate(A: sparse.csr_matrix, p0: np.ndarray, h: np.ndarray, t_sorted: np
     k = len(sol.t)                     # the times reached before the stop
     if k:
         P[:, :k] = sol.y
-    P[:, k:] = p_eq[:, None]
+    if k < t_sorted.size:              # stopped by the event: p_eq exists
+        P[:, k:] = p_eq[:, None]
     return P
 
 

@@ -66,6 +66,9 @@ def model_error(sol, reference: Any = None) -> dict[str, Any]:
     from ..references import reference as solve_reference
     from .model_error import against, judged_keys, unbounded
     t0 = time.perf_counter()
+    if reference is not None:
+        from .model_error import check_reference
+        check_reference(sol, reference, "AveragedSolution.error_estimate")
     try:
         ref = reference if reference is not None else solve_reference("fem", sol.system)
     except (InputError, ValueError) as exc:
@@ -90,6 +93,12 @@ def estimate(sol, reference: Any = None, by: str = "fem") -> dict[str, Any]:
         from .._checks import invalid
         raise invalid("AveragedSolution.error_estimate", "by", 'one of "fem", "indicators"', by)
     if by == "indicators":
+        if reference is not None:
+            from .._checks import InputError
+            raise InputError("AveragedSolution.error_estimate: reference is for by=\"fem\" "
+                             "only (by=\"indicators\" makes no comparison); drop it or "
+                             "use by=\"fem\"", where="AveragedSolution.error_estimate",
+                             name="reference")
         from .error_model import estimate as by_indicators
         est = by_indicators(sol)
         worst = max(float(est[k]) for k in JUDGED if k in est)

@@ -243,9 +243,11 @@ class Options(_Options):
                       "with tensor assembly (no mesh, element = 'quad', assembly 'auto' or "
                       "'tensor'); degree 1 or 2 serve meshes and triangles")
         if mesh is not None:
-            for name in ("nx", "ny", "y_max"):
+            for name in ("nx", "ny", "y_max", "wall_grading"):
                 if getattr(self, name) is not None:
                     raise bad(name, "must not be given with a mesh (the mesh fixes it)")
+            if self.grading != 0.0:
+                raise bad("grading", "must not be given with a mesh (the mesh fixes it)")
             if self.assembly == "tensor":
                 raise bad("assembly", "= 'tensor' needs the built-in structured mesh "
                           "(no mesh)")
