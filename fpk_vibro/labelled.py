@@ -28,11 +28,16 @@ NETCDF_ENGINE = "h5netcdf"
 
 
 def _xarray():
+    """The xarray module; an ImportError in one line naming the module that is missing
+    (xarray itself, or one it imports: pandas, numpy, ...)."""
     try:
         import xarray
-    except ImportError:
-        raise ImportError("labelled data needs xarray: pip install 'fpk_vibro[data]' "
-                          "(xarray, h5netcdf)") from None
+    except ImportError as exc:
+        missing = (exc.name or "xarray").split(".")[0]
+        why = "" if missing == "xarray" else \
+            f" (which xarray imports; {' '.join(str(exc).split())})"
+        raise ImportError(f"labelled data needs {missing}{why}: pip install "
+                          "'fpk_vibro[data]' (xarray, pandas, h5netcdf)") from None
     return xarray
 
 

@@ -14,6 +14,11 @@ loaded object evaluates every density and moment to the same bits as the saved o
 
 - ``package`` : the version of fpk_vibro that wrote it.
 
+An error estimate made before saving (``error_estimate()``, or the one an rtol solve
+made) is part of the answer: it is stored in ``meta["estimate"]`` (floats to the bit,
+inf and NaN kept) and the loaded object's ``error_estimate()`` returns it as made,
+with no second run (an FE transient's richer run, Monte Carlo's run at 2 dt).
+
 Before building anything, ``load`` checks the file (:mod:`fpk_vibro.solution_file`):
 any problem is one ``ValueError`` line naming the file.  The class of a kind is
 found through :data:`~fpk_vibro.solution_file.KIND_MODULES`, imported on demand.
@@ -33,8 +38,8 @@ from ._checks import InputError, check_points, invalid
 from .io import atomic_write
 from .keys import ESTIMATE_KEYS, MOMENT_KEYS
 from .model import VibroImpactSystem
-from .solution_file import (FORMAT_NAME, FORMAT_VERSION, KIND_MODULES, RESERVED, Corrupt,
-                            Rule, Stored, open_archive, read)
+from .solution_file import (ESTIMATE, FORMAT_NAME, FORMAT_VERSION, KIND_MODULES, RESERVED,
+                            Corrupt, Rule, Stored, open_archive, read)
 
 __all__ = ["Solution", "MOMENT_KEYS", "ESTIMATE_KEYS", "KIND_MODULES", "Rule", "Stored",
            "TransientResult"]
@@ -246,14 +251,26 @@ class Solution(abc.ABC):
         """Raise ValueError on what the schemas cannot say (relations between the parts)."""
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write this solution to ``path`` (``.npz``, see module docstring), atomically.
+        """Write this solution to ``path`` (``.npz``, see module docstring), atomically,
+        with the error estimate if one was made.
 
         Returns the path written (``.npz`` appended if missing).
+
+        Raises
+        ------
+        InputError
+            Where that path is an existing directory (one line naming it).
         """
         path = Path(path)
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
+        where = f"{type(self).__name__}.save"
+        if path.is_dir():
+            raise invalid(where, "path", "a file path, not an existing directory", str(path))
         meta, arrays = self._state()
+        made = self.__dict__.get("_estimate")
+        if isinstance(made, dict):
+            meta = {**meta, ESTIMATE: _plain(made)}
         clash = set(RESERVED) & set(arrays)
         if clash:
             raise RuntimeError(f"state arrays use reserved names {sorted(clash)}")
@@ -266,7 +283,11 @@ class Solution(abc.ABC):
             "package": np.array(_package_version()),
             **{k: np.asarray(v) for k, v in arrays.items()},
         }
-        atomic_write(path, lambda fh: np.savez(fh, **payload))
+        try:
+            atomic_write(path, lambda fh: np.savez(fh, **payload))
+        except IsADirectoryError:       # made a directory meanwhile
+            raise invalid(where, "path", "a file path, not an existing directory",
+                          str(path)) from None
         return path
 
     @classmethod
@@ -281,7 +302,8 @@ class Solution(abc.ABC):
         Returns
         -------
         Solution
-            Of the class that wrote the file (imported on demand).
+            Of the class that wrote the file (imported on demand), with the error
+            estimate the saved one had made, if any.
 
         Raises
         ------
@@ -298,7 +320,11 @@ class Solution(abc.ABC):
         try:
             with open_archive(path) as zf:
                 target, system, meta, arrays = read(zf, Solution._registry, cls)
-            return target._from_state(system, meta, arrays)
+            made = meta.pop(ESTIMATE, None)
+            out = target._from_state(system, meta, arrays)
+            if made is not None:
+                out._estimate = made
+            return out
         except (Corrupt, ValueError) as exc:
             problem = " ".join(str(exc).split())
             raise InputError(f"{name}: {problem}", where=name, name="path") from None
@@ -316,6 +342,18 @@ class TransientResult(list):
 
     partial: bool = False
     times_requested: tuple = ()
+
+
+def _plain(value: Any) -> Any:
+    """``value`` (an estimate) as JSON values, floats to the bit: NumPy scalars as
+    Python ones, inf and NaN kept (written as ``Infinity`` and ``NaN``)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if value is None or isinstance(value, (bool, np.bool_)):
+        return None if value is None else bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    return float(value) if isinstance(value, (float, np.floating)) else str(value)
 
 
 def _package_version() -> str:

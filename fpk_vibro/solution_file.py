@@ -4,7 +4,8 @@ A file is a NumPy ``.npz`` archive (see :mod:`fpk_vibro.solution`).  Before anyt
 is built, :func:`read` checks it: a zip of ``.npy`` members (never unpickled; each
 header checked against the bytes present), the format and version, the JSON of
 ``system`` (a valid :class:`~fpk_vibro.VibroImpactSystem`) and ``meta`` (against
-the class's ``_meta_schema`` of :class:`Rule`), and every array against the class's
+the class's ``_meta_schema`` of :class:`Rule`; a stored estimate against
+:data:`ESTIMATE_RULE`), and every array against the class's
 ``_array_schema`` of :class:`Stored` (names, dtypes, shapes, finite values, signs).
 Problems are raised as :class:`Corrupt` (the message without the file name).
 """
@@ -26,10 +27,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._checks import interval, show
+from .keys import ESTIMATE_KEYS
 from .model import VibroImpactSystem
 
 __all__ = ["Rule", "Stored", "Corrupt", "read", "open_archive", "FORMAT_NAME", "FORMAT_VERSION",
-           "KIND_MODULES", "RESERVED"]
+           "KIND_MODULES", "RESERVED", "ESTIMATE", "ESTIMATE_RULE"]
 
 FORMAT_NAME = "fpk_vibro.solution"
 FORMAT_VERSION = 1
@@ -40,6 +42,9 @@ KIND_MODULES = {"averaging": "fpk_vibro.averaging", "averaging_grid": "fpk_vibro
                 "montecarlo": "fpk_vibro.montecarlo"}
 #: Members every file holds besides the class's arrays ("package": the writer's version).
 RESERVED = ("format", "version", "kind", "system", "meta", "package")
+#: The ``meta`` key of the error estimate made before saving (every kind:
+#: ``Solution.save`` writes it, ``Solution.load`` gives it back as made).
+ESTIMATE = "estimate"
 
 
 class Corrupt(Exception):
@@ -138,6 +143,26 @@ Rule.TEXT = Rule("a string", lambda v: isinstance(v, str))
 Rule.ANY = Rule("any JSON value", lambda v: True)
 Rule.SCALAR = Rule("a number, string, boolean or null",
                    lambda v: v is None or isinstance(v, (bool, int, float, str)))
+
+
+def _estimated(v: Any) -> bool:
+    """An ``error_estimate()`` dict: its figures (:data:`~fpk_vibro.keys.ESTIMATE_KEYS`)
+    numbers ≥ 0, inf or NaN; the rest numbers, strings, flags, null or objects of numbers."""
+    def num(x):
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+    def ok(k, x):
+        if k in ESTIMATE_KEYS:
+            return num(x) and (x >= 0 or math.isnan(x))
+        return x is None or isinstance(x, (bool, int, float, str)) or (
+            isinstance(x, dict) and all(map(num, x.values())))
+    return isinstance(v, dict) and all(ok(k, x) for k, x in v.items())
+
+
+#: What a stored :data:`ESTIMATE` must be.
+ESTIMATE_RULE = Rule("an object of the estimate's figures (numbers >= 0, inf or NaN) and "
+                     "notes (numbers, strings, flags, null or objects of numbers)", _estimated,
+                     required=False)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -273,6 +298,9 @@ def _read_header(zf: zipfile.ZipFile, registry: dict[str, type]
                 raise Corrupt(f"meta misses key {key!r} ({rule.allowed}), needed by kind {kind!r}")
         elif not rule.ok(meta[key]):
             raise Corrupt(f"meta[{key!r}] must be {rule.allowed}; got {show(meta[key])}")
+    if ESTIMATE in meta and not ESTIMATE_RULE.ok(meta[ESTIMATE]):
+        raise Corrupt(f"meta[{ESTIMATE!r}] must be {ESTIMATE_RULE.allowed}; got "
+                      f"{show(meta[ESTIMATE])}")
     return target, system, meta
 
 

@@ -34,8 +34,8 @@ from ..model import VibroImpactSystem
 from ..solution import Solution
 from . import integrals
 from .marginals import energy_density, marginal_x, marginal_y
-from .solution_files import (META_SCHEMA, array_schema, check_state, state, state_mesh,
-                             write_mesh_file)
+from .solution_files import (META_SCHEMA, array_schema, check_state, state, state_info,
+                             state_mesh, write_mesh_file)
 from .under_resolved import RESOLUTION_TOL, diagnosis, flag_estimate  # noqa: F401
 
 __all__ = ["FEMSolution"]
@@ -281,9 +281,8 @@ class FEMSolution(Solution):
         """
         if self._estimate is None:
             if self.snapshot_time() is not None and "estimator" not in vars(self):
-                raise ValueError("error_estimate: this transient density has no estimate "
-                                 "(fem.transient gives it to the list it returns, not to "
-                                 "a density read from a file)")
+                raise ValueError("error_estimate: this transient density has no estimate (one "
+                                 "read from a file saved before fem.transient made it has none)")
             self._estimate = self.estimator(self)
         self._apply_estimate()
         return dict(self._estimate)
@@ -385,14 +384,14 @@ class FEMSolution(Solution):
 
     @classmethod
     def _check_state(cls, system, meta, arrays):
-        """DOF count of the degree on this mesh (Q2: + edges + cells, P2: + edges)."""
-        check_state(meta, arrays)
+        """DOF count of the degree on this mesh; the walls at its x-extremes."""
+        check_state(meta, arrays, system)
 
     @classmethod
     def _from_state(cls, system, meta, arrays):
         tensor = (arrays["xnodes"], arrays["ynodes"]) if meta["tensor"] else None
         return cls(system, state_mesh(meta, arrays), meta["degree"], arrays["dofs"],
-                   residual=meta["residual"], info=meta.get("info", {}), tensor=tensor,
+                   residual=meta["residual"], info=state_info(meta), tensor=tensor,
                    mass=meta.get("mass"))
 
     def __repr__(self) -> str:

@@ -12,17 +12,23 @@ import skfem
 from ..solution import Rule, Stored
 from .options import Options
 
-__all__ = ["state", "META_SCHEMA", "array_schema", "check_state", "state_mesh",
+__all__ = ["state", "META_SCHEMA", "array_schema", "check_state", "state_mesh", "state_info",
            "write_mesh_file"]
 
 
 def state(sol) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """(meta, arrays) of ``sol`` as a solution file stores them."""
+    """(meta, arrays) of ``sol`` as a solution file stores them: the scalar ``info``
+    and the non-negative correction's record (``info["correction"]``, which its
+    error estimate adds, :mod:`fpk_vibro.fem.nonnegative`)."""
     meta = {"degree": sol.degree, "cell": "quad" if isinstance(sol.mesh, skfem.MeshQuad1) else "tri",
             "residual": sol.residual, "tensor": sol._tensor is not None,
             "mass": sol.mass,
             "info": {k: v for k, v in sol.info.items()
                      if isinstance(v, (int, float, str, bool)) or v is None}}
+    change = sol.info.get("correction")
+    if isinstance(change, dict):
+        meta["correction"] = {k: v for k, v in change.items()
+                              if isinstance(v, (int, float, str, bool))}
     arrays = {"mesh_p": sol.mesh.p, "mesh_t": sol.mesh.t.astype(np.int64), "dofs": sol.dofs}
     if sol._tensor is not None:
         arrays["xnodes"], arrays["ynodes"] = sol._tensor
@@ -33,7 +39,8 @@ def state(sol) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
 META_SCHEMA = {"degree": Rule.of(Options.declared()["degree"]), "cell": Rule.choice("quad", "tri"),
                "residual": Rule.number(0.0, nan=True), "tensor": Rule.FLAG,
                "mass": Rule.number(0.0, lo_open=True, none=True).optional(),
-               "info": Rule.mapping(Rule.SCALAR).optional()}
+               "info": Rule.mapping(Rule.SCALAR).optional(),
+               "correction": Rule.mapping(Rule.SCALAR).optional()}
 
 
 def array_schema(meta: dict[str, Any]) -> dict[str, Stored]:
@@ -49,8 +56,10 @@ def array_schema(meta: dict[str, Any]) -> dict[str, Stored]:
     return out
 
 
-def check_state(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-    """DOF count of the degree on this mesh (Q2: + edges + cells, P2: + edges)."""
+def check_state(meta: dict[str, Any], arrays: dict[str, np.ndarray], system=None) -> None:
+    """DOF count of the degree on this mesh (Q2: + edges + cells, P2: + edges); the
+    walls of ``system`` at the mesh's x-extremes (as a solve requires them,
+    :func:`fpk_vibro.fem.generator.mesh_domain`; the tensor x-nodes' ends too)."""
     t, n = arrays["mesh_t"], arrays["mesh_p"].shape[1]
     want = n
     if meta["degree"] > 2 and meta["tensor"]:    # Q3/Q4: (k nx + 1)(k ny + 1)
@@ -68,6 +77,32 @@ def check_state(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
     if meta["tensor"] and arrays["xnodes"].size * arrays["ynodes"].size != n:
         raise ValueError(f"arrays 'xnodes' ({arrays['xnodes'].size}) and 'ynodes' "
                          f"({arrays['ynodes'].size}) do not span the {n} mesh vertices")
+    if system is not None:
+        _check_walls(system, arrays)
+
+
+def _check_walls(system, arrays: dict[str, np.ndarray]) -> None:
+    """ValueError where a wall of the stored system is not the mesh's x-extreme on its
+    side (to 1e-9 of the width, the tolerance of a solve)."""
+    x = arrays["mesh_p"][0]
+    ends = [("mesh", float(x.min()), float(x.max()))]
+    if "xnodes" in arrays:
+        ends.append(("tensor x-nodes", float(arrays["xnodes"][0]), float(arrays["xnodes"][-1])))
+    for what, x0, x1 in ends:
+        tol = 1e-9 * max(1.0, x1 - x0)
+        for side, edge, wall in (("left", x0, system.left), ("right", x1, system.right)):
+            if wall is not None and not abs(edge - wall.position) <= tol:
+                raise ValueError(f"the stored system's {side} wall x = {wall.position!r} "
+                                 f"is not the {side} edge of the {what} (x = {edge!r}): "
+                                 "the system and the mesh do not belong together")
+
+
+def state_info(meta: dict[str, Any]) -> dict[str, Any]:
+    """The ``info`` of a stored state, with the correction's record back in it."""
+    info = dict(meta.get("info", {}))
+    if "correction" in meta:
+        info["correction"] = dict(meta["correction"])
+    return info
 
 
 def state_mesh(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> skfem.Mesh:

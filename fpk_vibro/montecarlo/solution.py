@@ -197,7 +197,8 @@ class MonteCarloSolution(Solution):
     def error_estimate(self) -> dict[str, Any]:
         """Statistics and time-step bias together: 2 SE plus the bias from a second run
         at 2 dt (:mod:`fpk_vibro.montecarlo.estimate`; computed on the first call; a
-        transient's times share one second run, which its engine attached)."""
+        transient's times share one second run, which its engine attached; once made,
+        kept by ``save`` and returned after ``load``)."""
         if getattr(self, "_estimate", None) is None:
             from .estimate import error_estimate
             self._estimate = error_estimate(self)
