@@ -2,13 +2,43 @@
 
 Shown on an interactive terminal or in a Jupyter notebook (``tqdm.auto`` picks the
 widget), after two seconds, on stderr; ``progress=False`` (the CLI's ``--quiet``)
-or output that is not interactive turns it off.
+or output that is not interactive turns it off.  Within :func:`as_lines` (the worker
+processes of a sweep, whose bars would overwrite each other on one terminal) a
+progress bar is one plain line instead, printed once its work has run two seconds.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import sys
+import time
+from typing import Iterator
 
-__all__ = ["Progress", "interactive"]
+__all__ = ["Progress", "interactive", "as_lines", "LINE_DELAY"]
+
+#: Seconds of work after which a progress line (:func:`as_lines`) is printed.
+LINE_DELAY = 2.0
+
+_LINES: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "fpk_vibro_progress_lines", default=None)
+
+
+@contextlib.contextmanager
+def as_lines(prefix: str) -> Iterator[None]:
+    """Within: every enabled :class:`Progress` prints one line on stderr,
+    ``prefix + label + " ..."``, once its work has run :data:`LINE_DELAY` seconds,
+    and no bar.
+
+    Parameters
+    ----------
+    prefix : str
+        What the line starts with (e.g. the sweep point it belongs to).
+    """
+    token = _LINES.set(prefix)
+    try:
+        yield
+    finally:
+        _LINES.reset(token)
 
 
 def interactive() -> bool:
@@ -17,7 +47,8 @@ def interactive() -> bool:
 
 
 class Progress:
-    """A progress bar over a fraction (0 to 1) or a count.
+    """A progress bar over a fraction (0 to 1) or a count (within :func:`as_lines`:
+    one plain line).
 
     Parameters
     ----------
@@ -35,7 +66,11 @@ class Progress:
         self.enabled = interactive() if enabled is None else bool(enabled)
         self.total = total
         self._bar = None
-        if self.enabled:
+        self._line: str | None = None
+        prefix = _LINES.get()
+        if self.enabled and prefix is not None:       # a plain line (as_lines)
+            self._line, self._t0 = prefix + label, time.monotonic()
+        elif self.enabled:
             from tqdm.auto import tqdm
             fraction = total == 1.0
             self._bar = tqdm(total=100.0 if fraction else total, desc=label, delay=2.0,
@@ -48,6 +83,9 @@ class Progress:
 
     def update(self, done: float, extra: str = "") -> None:
         """Set the progress to ``done`` (a fraction, or a count of ``total``)."""
+        if self._line is not None and time.monotonic() - self._t0 >= LINE_DELAY:
+            print(f"{self._line} ...", file=sys.stderr, flush=True)
+            self._line = None
         if self._bar is not None:
             self._bar.n = min(done * self._scale, self._bar.total)
             if extra:
@@ -55,6 +93,7 @@ class Progress:
             self._bar.refresh()
 
     def close(self, note: str = "") -> None:
+        self._line = None
         if self._bar is not None:
             if note:
                 self._bar.set_postfix_str(note, refresh=False)

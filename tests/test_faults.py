@@ -83,7 +83,10 @@ def test_signal_in_a_process_sweep_loses_nothing_and_resume_completes(tmp_path, 
     status = [p["status"] for p in doc["points"]]
     assert len(status) == 6 and "interrupted" in status
     on_disk = {json.loads(f.read_text())["index"] for f in (out / "points").glob("p*.json")}
-    assert on_disk == {p["index"] for p in doc["points"] if p["status"] == "done"}
+    # finished points, and those the signal stopped with what they had (issue 30)
+    assert on_disk == {p["index"] for p in doc["points"] if p.get("methods")}
+    assert all(p["methods"]["montecarlo"]["moments"]["E_H"] > 0
+               for p in doc["points"] if p.get("methods"))
     assert not [w for w in workers if alive(w)]
     assert stopped < 10.0
     r = start(["run", str(path), "--out", str(out), "--workers", "2", "--resume", "--quiet"])

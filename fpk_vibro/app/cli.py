@@ -109,12 +109,27 @@ def cmd_run(args: argparse.Namespace) -> int:
         _print_summary(doc)
         print(f"  wrote {out}/results.json")
     if doc["status"] == "interrupted":
-        n_done = sum(p.get("status") == "done" for p in doc["points"])
-        print(f"fpk-vibro: interrupted ({doc['signal']}): the run is partial, {n_done} of "
-              f"{len(doc['points'])} point(s) finished and kept in {out}/results.json; "
-              "continue with --resume", file=sys.stderr)
+        print(f"fpk-vibro: interrupted ({doc['signal']}): the run is partial: "
+              f"{_kept(doc['points'])}, in {out}/results.json; continue with --resume",
+              file=sys.stderr)
         return 128 + int(getattr(signal, doc["signal"]))
     return 1 if any(p.get("status") == "failed" for p in doc["points"]) else 0
+
+
+def _kept(points: list[dict]) -> str:
+    """What an interrupted run kept, counted: "2 of 3 point(s) kept (1 finished, 1 with
+    every answer but no error estimate)"; a point a signal stopped keeps its answers
+    (with ``partial`` where a method was cut short) or, stopped in its estimates, every
+    answer without them."""
+    done = sum(p.get("status") == "done" for p in points)
+    stopped = [p for p in points if p.get("status") == "interrupted" and p.get("methods")]
+    partial = sum(any(e.get("partial") for e in p["methods"].values()) for p in stopped)
+    parts = [f"{done} finished"]
+    if len(stopped) > partial:
+        parts.append(f"{len(stopped) - partial} with every answer but no error estimate")
+    if partial:
+        parts.append(f"{partial} with partial answers")
+    return f"{done + len(stopped)} of {len(points)} point(s) kept ({', '.join(parts)})"
 
 
 def cmd_check(args: argparse.Namespace) -> int:

@@ -3,13 +3,19 @@
 
 Every route yields each point's record as it finishes; a point whose worker died or
 whose Dask task failed is a failed record, and a lost scheduler is
-:class:`SchedulerLost` (the run keeps what finished).
+:class:`SchedulerLost` (the run keeps what finished).  A signal stops the points in
+progress everywhere as in this process: each keeps what it finished (written as
+interrupted), worker processes by a SIGINT of their own (:mod:`fpk_vibro.app.pool`),
+Dask tasks, which cannot be signalled, by ``Interrupted`` raised in their thread
+(:func:`_task`, :func:`_stop_tasks`).
 """
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import socket
+import threading
 import time
 from typing import Any, Callable
 
@@ -73,12 +79,93 @@ def execute(point_job: Callable[[tuple], dict[str, Any]], jobs: list, serial: bo
     yield from run_jobs(point_job, jobs, workers or os.cpu_count() or 1, _died)
 
 
+#: On a Dask worker: the threads running a point, thread id → (the run's token, the
+#: point's index); and the runs asked to stop (:func:`_stop_tasks`).
+_RUNNING: dict[int, tuple[str, int] | None] = {}
+_STOPPED: set[str] = set()
+_LOCK = threading.Lock()
+
+
+def _raise_in(thread: int, exc: type[BaseException] | None) -> int:
+    """``exc`` raised in ``thread`` at its next Python instruction (None: a pending
+    one dropped); the number of threads changed."""
+    return ctypes.pythonapi.PyThreadState_SetAsyncExc(
+        ctypes.c_ulong(thread), None if exc is None else ctypes.py_object(exc))
+
+
+def _leave(me: int) -> None:
+    with _LOCK:
+        _RUNNING.pop(me, None)
+        _raise_in(me, None)
+
+
+def _task(job: tuple, point_job: Callable[[tuple], dict[str, Any]]) -> dict[str, Any]:
+    """``point_job(job)`` as a Dask task that its run can stop (:func:`_stop_tasks`):
+    stopped, the point keeps what it finished (``point_job`` writes it as
+    interrupted) and the task returns that record.  The interruption never reaches
+    Dask (a ``KeyboardInterrupt`` out of a task would close the worker)."""
+    me, token, rec = threading.get_ident(), job[6], None
+    try:
+        try:
+            with _LOCK:
+                if token in _STOPPED:          # the run stopped before this task began
+                    return {"index": job[1], "parameters": job[2], "status": "interrupted"}
+                _RUNNING[me] = (token, job[1])
+            rec = point_job(job)
+        except KeyboardInterrupt:
+            pass
+    finally:
+        while True:        # an interruption delivered only now is taken here, not by Dask
+            try:
+                _leave(me)
+                break
+            except KeyboardInterrupt:
+                pass
+    if rec is None:
+        rec = point_records(job[4]).get(job[1]) or {
+            "index": job[1], "parameters": job[2], "status": "interrupted"}
+    return rec
+
+
+def _stop_tasks(token: str) -> list[int]:
+    """On a Dask worker (``client.run``): interrupt every thread running a point of the
+    run ``token`` (each once), and start none of its points any more; their indices."""
+    from .interrupt import Interrupted
+    stopped = []
+    with _LOCK:
+        _STOPPED.add(token)
+        for thread, held in list(_RUNNING.items()):
+            if held is not None and held[0] == token:
+                _RUNNING[thread] = None
+                if _raise_in(thread, Interrupted):
+                    stopped.append(held[1])
+    return stopped
+
+
+def _stop_on_dask(client: Any, futures: list, jobs: list) -> None:
+    """After a signal: the run's tasks in progress stopped (:func:`_stop_tasks`), and
+    :data:`~fpk_vibro.app.pool.GRACE` seconds at most to write what they finished;
+    a second signal ends the wait."""
+    from .pool import GRACE
+    try:
+        stopped = client.run(_stop_tasks, jobs[0][6], on_error="ignore")
+        index = {job[1]: f for f, job in zip(futures, jobs)}
+        mine = [index[i] for found in stopped.values() if isinstance(found, list)
+                for i in found if i in index]
+        deadline = time.monotonic() + GRACE
+        while not all(f.done() for f in mine) and time.monotonic() < deadline:
+            time.sleep(0.05)
+    except (KeyboardInterrupt, Exception):   # a second signal, a lost scheduler: what
+        pass                                 # is written is kept
+
+
 def _on_dask(point_job: Callable[[tuple], dict[str, Any]], client: Any, jobs: list):
     """The jobs on Dask: a task that fails fails its point; a lost scheduler raises
-    :class:`SchedulerLost` after every point reported so far."""
+    :class:`SchedulerLost` after every point reported so far; a signal stops the
+    tasks in progress, which keep what they finished (:func:`_stop_on_dask`)."""
     from distributed import as_completed
     address = getattr(client, "fpk_address", "")
-    futures = client.map(point_job, jobs, pure=False)
+    futures = client.map(_task, jobs, point_job=point_job, pure=False)
     job_of = {f.key: job for f, job in zip(futures, jobs)}
     lost = False
     try:
@@ -99,8 +186,10 @@ def _on_dask(point_job: Callable[[tuple], dict[str, Any]], client: Any, jobs: li
                        "error": "on Dask: " + " ".join(
                            f"{type(exc).__name__}: {exc}".split())[:500]}
             yield rec
-    except BaseException:
+    except BaseException as exc:
         if not lost:
+            if isinstance(exc, KeyboardInterrupt):
+                _stop_on_dask(client, futures, jobs)
             try:
                 client.cancel(futures, force=True)
             except Exception:

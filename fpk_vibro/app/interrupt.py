@@ -51,14 +51,31 @@ def signals_handled() -> Iterator[None]:
             signal.signal(s, h)
 
 
+def _asked_to_stop(signum: int, frame) -> None:
+    """A worker's SIGINT: its run asks it to stop.  From now on the run speaks for it
+    (one line): the worker's own output goes to /dev/null."""
+    import os
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+    finally:
+        os.close(devnull)
+    raise Interrupted(signum)
+
+
 def worker_init(parent: int | None = None) -> None:
-    """For worker processes: the parent decides; SIGINT ignored, SIGTERM ends at once.
+    """For worker processes (in a session of their own: a Ctrl-C at the terminal
+    reaches the run alone): the run decides.  SIGINT is the run's request to stop:
+    :class:`Interrupted` is raised in the point in progress, which keeps what it
+    finished as in the run's own process (written as interrupted), and the worker
+    is silent from then on; SIGTERM ends it at once.
 
     With ``parent`` (its pid) the worker also dies with it: ``PR_SET_PDEATHSIG``
     (SIGKILL) on Linux, and a thread that checks the parent pid every second
     elsewhere (or if the parent died before the call).
     """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, _asked_to_stop)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     if parent is None:

@@ -6,7 +6,9 @@ Each worker is a fresh interpreter (``python -c``, not a fork of the run):
   (a fork would share the lock's open file and keep the directory "in use" after
   the run itself died);
 * it lives in its own session, so a Ctrl-C at the terminal reaches the run alone,
-  which then ends every worker (no worker prints a traceback of its own);
+  which then asks every worker to stop (SIGINT: the point in progress keeps what it
+  finished and is written as interrupted, as in the run's own process; the worker
+  says nothing) and ends any still there after :data:`GRACE` seconds (SIGKILL);
 * it dies with the run (``PR_SET_PDEATHSIG`` on Linux, and a parent-pid watchdog).
 
 The run hands one point at a time to each worker over a socket and knows which
@@ -21,6 +23,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from collections import deque
 from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterator
@@ -29,7 +32,8 @@ __all__ = ["run_jobs", "death_reason"]
 
 _BOOT = "from fpk_vibro.app.pool import _serve; _serve()"
 _SIGNALS = {signal.SIGINT, signal.SIGTERM}
-#: Seconds a worker gets to end after SIGTERM (or after its last point) before SIGKILL.
+#: Seconds the workers get, all together, to end after the request to stop (or after
+#: their last point) before SIGKILL.
 GRACE = 5.0
 
 
@@ -70,17 +74,36 @@ class _Worker:
         self.job: Any = None
 
     def stop(self, now: bool) -> None:
-        """End the process: at once (SIGTERM) or after its current work (EOF)."""
+        """End the process: now (SIGINT: it stops its point, keeping what it finished,
+        :func:`~fpk_vibro.app.interrupt.worker_init`) or after its current work (EOF)."""
         self.conn.close()
         if now and self.proc.poll() is None:
-            self.proc.terminate()
+            self.proc.send_signal(signal.SIGINT)
 
-    def reap(self) -> int | None:
+    def reap(self, deadline: float | None = None) -> int | None:
+        """Its exit status, waiting until ``deadline`` (monotonic; default
+        :data:`GRACE` from now), then SIGKILL."""
+        deadline = time.monotonic() + GRACE if deadline is None else deadline
         try:
-            return self.proc.wait(timeout=GRACE)
+            return self.proc.wait(timeout=max(0.0, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
             self.proc.kill()
             return self.proc.wait()
+
+
+def _end(workers: list[_Worker], now: bool) -> None:
+    """Stop every worker (:meth:`_Worker.stop`) and wait :data:`GRACE` seconds in all
+    for them; a second signal meanwhile kills the rest at once."""
+    for w in workers:
+        w.stop(now)
+    deadline = time.monotonic() + GRACE
+    try:
+        for w in workers:
+            w.reap(deadline)
+    except KeyboardInterrupt:
+        for w in workers:
+            w.reap(0.0)
+        raise
 
 
 def run_jobs(fn: Callable[[Any], Any], jobs: list, n: int,
@@ -124,30 +147,30 @@ def run_jobs(fn: Callable[[Any], Any], jobs: list, n: int,
                 yield result
         done = True
     finally:
-        for w in workers:
-            w.stop(now=not done)
-        for w in workers:
-            w.reap()
+        _end(workers, now=not done)
 
 
 def _serve() -> None:
-    """A worker: compute the jobs the run sends until it closes the socket."""
+    """A worker: compute the jobs the run sends until it closes the socket or asks the
+    worker to stop (SIGINT: :func:`~fpk_vibro.app.interrupt.worker_init`)."""
     from .interrupt import worker_init
     fd, parent = int(sys.argv[1]), int(sys.argv[2])
-    worker_init(parent)
     conn = Connection(fd)
-    while True:
-        try:
+    try:
+        worker_init(parent)
+        while True:
             fn, job = conn.recv()
-        except (EOFError, OSError):
-            return
-        try:
-            result = fn(job)
-        except BaseException as exc:   # re-raised by the run
             try:
-                conn.send((False, exc))
-            except Exception:          # not picklable
+                reply = (True, fn(job))
+            except BaseException as exc:   # re-raised by the run
+                reply = (False, exc)
+            try:
+                conn.send(reply)
+            except OSError:                # the run has gone (below)
+                raise
+            except Exception:              # not picklable
+                exc = reply[1]
                 conn.send((False, RuntimeError(" ".join(
                     f"{type(exc).__name__}: {exc}".split()))))
-            continue
-        conn.send((True, result))
+    except (KeyboardInterrupt, EOFError, OSError):   # asked to stop, or the run has gone
+        return

@@ -3,11 +3,14 @@
 Every point record (``points/p{i}.json``) carries a ``fingerprint``: ``"scene"``, a
 digest of the scene (its parsed TOML and its name), and ``"point"``, a digest of the
 point's own index, parameters, system and every method option as used (defaults
-filled in, so ``--reduced`` and the full size differ).  ``fpk-vibro run --resume``
-keeps a record only when it is the file of its own index, both digests match the
-run's, it finished (failed, interrupted and damaged points are computed again) and
-the files it lists (densities, figures, VTU) are still there; :func:`select` says in
-one line how many it kept, how many are computed again and why.
+filled in, so ``--reduced`` and the full size differ).  A record as written also
+carries ``"record"``, a digest of everything else in it (:func:`seal`).
+``fpk-vibro run --resume`` keeps a record only when it is the file of its own index,
+both digests match the run's, it finished (failed, interrupted and damaged points
+are computed again), its content is as written (an edited or truncated record, one
+without its answers, is computed again) and the files it lists (densities, figures,
+VTU) are still there; :func:`select` says in one line how many it kept, how many
+are computed again and why.
 
 A run owns its directory's outputs: :func:`clear_outputs` removes what an earlier
 run wrote there (``results.json``, ``densities.npz``, ``results.nc``, sweep figures,
@@ -30,8 +33,8 @@ import numpy as np
 
 from ..io import strict
 
-__all__ = ["fingerprint", "select", "clear_outputs", "clear_temporaries", "storage_fault",
-           "STORAGE_ERRORS"]
+__all__ = ["fingerprint", "seal", "select", "clear_outputs", "clear_temporaries",
+           "storage_fault", "STORAGE_ERRORS"]
 
 #: errno values that mean the output's storage failed (not the point): the run stops.
 STORAGE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
@@ -58,6 +61,28 @@ def fingerprint(scene: Any, index: int, params: dict[str, float], system: Any
              "first_passage": scene.first_passage}
     return {"scene": _digest({"name": scene.name, "source": scene.source}),
             "point": _digest(point)}
+
+
+def _content(record: dict[str, Any]) -> str:
+    """The digest of a point record without its own ``fingerprint["record"]``."""
+    stamp = {k: v for k, v in record.get("fingerprint", {}).items() if k != "record"}
+    return _digest({**record, "fingerprint": stamp})
+
+
+def seal(record: dict[str, Any]) -> dict[str, Any]:
+    """``record`` with ``fingerprint["record"]``, the digest of its content as written
+    (strict JSON: the same digest after reading the file back), so that a record
+    changed after it was written is not reused (:func:`select`)."""
+    record["fingerprint"] = {**record.get("fingerprint", {}), "record": _content(record)}
+    return record
+
+
+def _sealed(record: dict[str, Any]) -> bool:
+    stamp = record.get("fingerprint")
+    try:
+        return isinstance(stamp, dict) and stamp.get("record") == _content(record)
+    except (TypeError, ValueError):     # not JSON that the runner writes
+        return False
 
 
 def storage_fault(exc: BaseException) -> bool:
@@ -125,6 +150,8 @@ def select(out_dir: Path, scene: Any, points: list) -> tuple[dict[int, dict[str,
             why["failed before"] += 1
         elif rec.get("status") != "done":
             why["interrupted before"] += 1
+        elif not _sealed(rec):
+            why["record changed after it was written"] += 1
         elif not _files_present(out_dir, rec):
             why["densities or figures missing"] += 1
         else:

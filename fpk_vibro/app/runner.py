@@ -12,6 +12,7 @@ Layout of an output directory::
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import time
@@ -23,7 +24,7 @@ import numpy as np
 from .._checks import InputError
 from ..io import atomic_json, atomic_savez
 from ..model import VibroImpactSystem
-from ..progress import Progress
+from ..progress import Progress, as_lines, interactive
 from ..registry import methods
 from ..scales import density_grids
 from .estimates import add_estimates
@@ -32,7 +33,8 @@ from .interrupt import Interrupted, received, signals_handled
 from .outdir import OutputDir, holds, point_records
 from .plan import first_passage_kwargs, resolved_options, solver_kwargs
 from .results import storage_failed, write_results
-from .resume import clear_outputs, clear_temporaries, fingerprint, select, storage_fault
+from .resume import (clear_outputs, clear_temporaries, fingerprint, seal, select,
+                     storage_fault)
 from .scenes import Scene, check_scene
 
 __all__ = ["run_scene", "run_point", "grids_for"]
@@ -198,16 +200,29 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
     if "npz" in scene.formats and arrays:
         atomic_savez(out_dir / "points" / f"p{index}.npz", arrays)
         record["densities"] = f"points/p{index}.npz"     # resume checks it is there
-    atomic_json(out_dir / "points" / f"p{index}.json", record)
+    atomic_json(out_dir / "points" / f"p{index}.json", seal(record))   # resume checks it
     if record["status"] == "interrupted":
         raise Interrupted(received() or signal.SIGINT)
     return record
 
 
+def _label(params: dict[str, float]) -> str:
+    return ", ".join(f"{k}={v:g}" for k, v in params.items()) or "single point"
+
+
 def _point_job(args: tuple) -> dict[str, Any]:
+    """One point in a worker (or in this process): its record, or a failed one.
+
+    ``progress`` "lines" (a worker of a run that shows progress): each long stage is
+    one line naming the point (:func:`fpk_vibro.progress.as_lines`), not a bar."""
     scene, index, params, system, out_dir, progress, token = args
+    lines: Any = contextlib.nullcontext()
+    if progress == "lines":
+        lines = as_lines(f"  point {index + 1}/{scene.n_points} ({_label(params)}): ")
+        progress = True
     try:
-        return run_point(scene, index, params, system, out_dir, progress, token)
+        with lines:
+            return run_point(scene, index, params, system, out_dir, progress, token)
     except Interrupted:
         raise
     except OSError as exc:    # a full disk is the run's fault, not the point's: it stops
@@ -237,7 +252,8 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
 
     Everything is checked before any work (:func:`fpk_vibro.app.scenes.check_scene`,
     the output directory, its lock).  ``progress`` (None: on a terminal) is passed
-    to the solvers of a run in this process (one point, or ``workers=1``).
+    to the solvers of a run in this process (one point, or ``workers=1``); workers
+    print one line per stage that lasts (:func:`fpk_vibro.progress.as_lines`).
     ``resume``: keep the points an earlier run of the same scene finished in the
     output directory and compute only the others (:func:`fpk_vibro.app.resume.select`:
     a record is kept when its fingerprints match and its files are there; failed
@@ -274,7 +290,9 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
         # the output directory as an absolute path: a worker (a Dask one in particular)
         # has its own working directory
         job_dir = Path(os.path.abspath(out_dir))
-        jobs = [(scene, i, params, system, job_dir, progress if serial else False, lock.token)
+        shown = interactive() if progress is None else bool(progress)
+        jobs = [(scene, i, params, system, job_dir,
+                 progress if serial else ("lines" if shown else False), lock.token)
                 for i, (params, system) in enumerate(points) if i not in records]
         t0 = time.perf_counter()
         signum = None
@@ -325,7 +343,7 @@ def run_scene(scene: Scene, *, out: str | Path | None = None, workers: int | Non
 def _report(record: dict[str, Any], total: int, log: Callable[[str], None],
             warn: Callable[[str], None]) -> dict[str, Any]:
     i = record["index"]
-    params = ", ".join(f"{k}={v:g}" for k, v in record["parameters"].items()) or "single point"
+    params = _label(record["parameters"])
     if record.get("status") == "failed":
         warn(f"  point {i + 1}/{total} ({params}) FAILED: {record['error']}")
     else:

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Sequence
 from typing import Any
 
@@ -13,7 +12,7 @@ from ..model import VibroImpactSystem
 from . import _kernel as K
 from . import _setup as S
 from ._summary import _check_finite, _ratio, _reduce
-from .estimate import shared_second_run
+from .estimate import interruption_note, shared_second_run
 from .options import Options
 from ..solution import TransientResult
 from .solution import QUANTITIES, MonteCarloSolution
@@ -203,8 +202,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                     frac=fraction, threads=threads, walls=wimp)
     except KeyboardInterrupt:
         partial = True
-        print("\n[montecarlo] interrupted: returning the samples taken so far "
-              "(solution.partial = True)", file=sys.stderr)
+        interruption_note("\n[montecarlo] interrupted: returning the samples taken so far "
+                          "(solution.partial = True)")
     if partial and mom[:, K.M_N].sum() == 0:
         raise KeyboardInterrupt("montecarlo.stationary interrupted before any sample")
     prog.close()
@@ -215,7 +214,9 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                 sample_every=sample_every, quantities=list(quantities),
                 mode=system.barriers, target_rse=target_rse if adaptive else None,
                 spawn_key=list(ss.spawn_key))
-    return _reduce(system, hist, mom, imp, xext, dt, meta, wimp)
+    sol = _reduce(system, hist, mom, imp, xext, dt, meta, wimp)
+    sol._progress = progress           # the estimate's second run shows it the same way
+    return sol
 
 
 MonteCarloSolution.rerun = staticmethod(stationary)
@@ -313,16 +314,16 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             steps.append((tau, h))
     except KeyboardInterrupt:
         out.partial = True
-        print(f"\n[montecarlo] interrupted: returning {len(out)} of {tarr.size} times "
-              "(run.partial = True)", file=sys.stderr)
+        interruption_note(f"\n[montecarlo] interrupted: returning {len(out)} of {tarr.size} "
+                          "times (run.partial = True)")
     prog.close()
     if not out.partial:
 
         def again(dt2: float) -> TransientRun:
             return transient(system, initial=initial, times=tarr, n_paths=n_paths, dt=dt2,
                              seed=np.random.SeedSequence(**family), quantities=(),
-                             n_batches=n_batches, max_impacts=max_impacts, progress=False,
-                             threads=threads)
+                             n_batches=n_batches, max_impacts=max_impacts,
+                             progress=progress, threads=threads)
 
         sources = shared_second_run(again, dt, steps)
         for sol, source in zip(out, sources):

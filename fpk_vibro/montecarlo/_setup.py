@@ -18,6 +18,7 @@ from ..progress import Progress as _Progress
 from ..scales import energy_scale, potential_min  # noqa: F401
 from ._histograms import Histograms, bin_count, x_range  # noqa: F401
 from ._params import StepFlags, StepParams, step_params  # noqa: F401
+from .estimate import second_run_label
 from ._step_size import (DT_RSE, STICK_DIV, STICK_R, binding_scale,  # noqa: F401
                          crossing_divisor, default_dt, default_sample_every, default_t_burn,
                          dt_limit, relaxation_rate, step_bounds, time_scales,
@@ -130,7 +131,7 @@ def initial_x(system: VibroImpactSystem) -> float:
 
 class Progress(_Progress):
     """The package's progress bar (:class:`fpk_vibro.progress.Progress`), labelled
-    for Monte Carlo."""
+    for Monte Carlo (and, in an error estimate's second run, as its bias run)."""
 
     def __init__(self, enabled: bool | None, label: str) -> None:
-        super().__init__(enabled, f"montecarlo {label}")
+        super().__init__(enabled, f"montecarlo {label}{second_run_label()}")

@@ -30,13 +30,16 @@ factor with S = dt², S' = dt'².  At t = 0 (no step: S = 0) the two runs hold t
 initial ensemble and the bias is 0; where S' = S (every interval a single step in
 both runs) it cannot be told: the estimate is then 2 SE with ``bias`` NaN.  Assumes
 the bias follows its leading order between the two steps.  A partial (interrupted)
-run, or a transient read from a file, has no second run: its estimate is 2 SE with
-``bias`` NaN, and ``assumes`` says so.
+run, or a transient read from a file saved before its estimate was made, has no second
+run: its estimate is 2 SE with ``bias`` NaN, and ``assumes`` says so.  An estimate made
+before saving is kept in the file and returned as made (:meth:`fpk_vibro.Solution.save`).
 """
 from __future__ import annotations
 
+import contextvars
 import functools
 import math
+import sys
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -45,7 +48,7 @@ from .._checks import InputError
 from ..keys import JUDGED, moment_scale
 
 __all__ = ["error_estimate", "second_run", "shared_second_run", "bias_factor", "STOPPED",
-           "JUDGED"]
+           "JUDGED", "second_run_label", "interruption_note"]
 
 #: What a member's second-run source gives: (the second run's solution at the same
 #: time, the bias factor, "2 dt" or "dt/2", seconds the second run took).
@@ -91,20 +94,76 @@ def _line(exc: BaseException) -> str:
     return " ".join(str(exc).split())
 
 
-def second_run(run: Callable[[float], Any], dt: float) -> tuple[Any, str]:
+#: The step of the second run in progress in this context ("2 dt" or "dt/2"), else None.
+_SECOND: contextvars.ContextVar[str | None] = contextvars.ContextVar(
+    "fpk_vibro_montecarlo_second_run", default=None)
+
+
+def second_run_label() -> str:
+    """What a progress line adds within a second run (", bias run at 2 dt"), else ""."""
+    step = _SECOND.get()
+    return "" if step is None else f", bias run at {step}"
+
+
+def interruption_note(text: str) -> None:
+    """The engine's note on stderr that a signal cut its run short; none within a
+    second run, whose estimate says what is kept (:func:`second_run`)."""
+    if _SECOND.get() is None:
+        print(text, file=sys.stderr)
+
+
+def _at(run: Callable[[float], Any], h: float, step: str, kept: str) -> Any:
+    """``run(h)`` as the second run at ``step``; interrupted, or partial, it raises
+    ``KeyboardInterrupt`` after one note that says what is kept."""
+    def note() -> None:
+        print(f"\n[montecarlo] interrupted during the error estimate's second run (at "
+              f"{step}): {kept} is kept, its error estimate not computed", file=sys.stderr)
+    token = _SECOND.set(step)
+    try:
+        other = run(h)
+    except KeyboardInterrupt:
+        note()
+        raise
+    finally:
+        _SECOND.reset(token)
+    if getattr(other, "partial", False):
+        note()
+        raise KeyboardInterrupt("montecarlo: the error estimate's second run was interrupted")
+    return other
+
+
+def second_run(run: Callable[[float], Any], dt: float, kept: str = "the answer"
+               ) -> tuple[Any, str]:
     """``run(2 dt)``, or ``run(dt/2)`` where 2 dt is refused or blows up
     (:data:`STOPPED`); with "2 dt" or "dt/2".
+
+    The second run's progress line (a stationary or transient run shows it where the
+    run estimated showed its own) is labelled "bias run at 2 dt"
+    (:func:`second_run_label`); its own note on an interruption is not printed (it
+    would speak of its samples or times as if they were the answer's).
+
+    Parameters
+    ----------
+    run : callable
+        ``run(dt')``: the run again at step dt'.
+    dt : float
+        The step of the run estimated.
+    kept : str
+        What the note after an interruption says is kept.
 
     Raises
     ------
     InputError
         Where dt/2 is stopped too: one line naming both reasons.
+    KeyboardInterrupt
+        Where the second run is interrupted, or returns a partial run: no estimate
+        is made of a part of it (the answer is unchanged; one note on stderr).
     """
     try:
-        return run(2.0 * dt), "2 dt"
+        return _at(run, 2.0 * dt, "2 dt", kept), "2 dt"
     except STOPPED as coarse:
         try:
-            return run(0.5 * dt), "dt/2"
+            return _at(run, 0.5 * dt, "dt/2", kept), "dt/2"
         except STOPPED as fine:
             raise InputError(f"the second run was refused (2 dt: {_line(coarse)}; dt/2: "
                              f"{_line(fine)})", name="dt") from None
@@ -128,17 +187,15 @@ def shared_second_run(run: Callable[[float], Any], dt: float,
     -------
     list of callable
         The i-th gives :data:`Second` for the i-th time; the run is made on the first
-        call of any of them and kept (not kept if it raised or was interrupted).
+        call of any of them and kept (not kept if it raised or was interrupted:
+        ``KeyboardInterrupt``, :func:`second_run`).
     """
     steps = [(float(tau), float(h)) for tau, h in steps]
 
     @functools.cache
     def once() -> tuple[Any, str, float]:
         t0 = time.perf_counter()
-        other, step = second_run(run, dt)
-        if getattr(other, "partial", False):
-            raise KeyboardInterrupt("montecarlo: the second run of the transient's error "
-                                    "estimate was interrupted")
+        other, step = second_run(run, dt, kept=f"the answer (all {len(steps)} times)")
         return other, step, time.perf_counter() - t0
 
     def member(i: int) -> Second:
@@ -155,7 +212,7 @@ def _stationary_second(sol) -> Second:
     kw = dict(n_paths=int(sol.n_paths), t_burn=float(sol.t_burn),
               t_sample=float(sol.t_sample), n_batches=int(sol.n_batches),
               seed=None if sol.seed_entropy is None else int(sol.seed_entropy),
-              quantities=("x",), progress=False)
+              quantities=("x",), progress=getattr(sol, "_progress", False))
     t0 = time.perf_counter()
     other, step = second_run(lambda dt: stationary(sol.system, dt=dt, **kw), sol.dt)
     return other, bias_factor([(1.0, sol.dt)], [other.dt]), step, time.perf_counter() - t0
@@ -181,7 +238,8 @@ def error_estimate(sol) -> dict[str, Any]:
     if sol.partial or source is None:
         other, factor, seconds = None, math.nan, 0.0
         assumes = ("2 standard errors only: no second run (an interrupted run, or a "
-                   "transient read from a file), so the time-step bias is not estimated")
+                   "transient read from a file saved before its estimate was made), so the "
+                   "time-step bias is not estimated")
     else:
         other, factor, step, seconds = source()
         if math.isnan(factor):
