@@ -19,13 +19,45 @@ from .regimes import Layout
 __all__ = ["energy_faces", "initial_cell_masses", "check_coverage"]
 
 
-def energy_faces(system: VibroImpactSystem, H_max: float, n_cells: int) -> np.ndarray:
+#: Width ratio of neighbouring cells above the stationary density's reach (a start
+#: far above the stationary energies).  E[H] at t = 1 from y0 = 10 … 1e6 on the paper's
+#: system against the averaged drift's own ODE: 1.5–3.8 % off at 1.03 (0.2–4.8 s),
+#: 0.5–1.3 % at 1.01 (0.4–30 s), 4–13 % at 1.1.
+GROWTH = 1.03
+
+
+def energy_faces(system: VibroImpactSystem, H_max: float, n_cells: int,
+                 H_top: float | None = None) -> np.ndarray:
     """Cell faces on [floor, H_max]; every wall energy G(x_w) < H_max is a face, with
     cells uniform in s = sqrt(H − G(x_w)) above it (graded toward it from above).
 
     A strip containing x = 0 starts with cells uniform in H from 0; a preloaded
-    strip starts at its floor, a wall energy, with cells uniform in s.
+    strip starts at its floor, a wall energy, with cells uniform in s.  With
+    ``H_top`` (where the stationary density ends) below ``H_max``, the ``n_cells``
+    cells cover [floor, H_top] and cells growing by :data:`GROWTH` continue to
+    ``H_max`` (wall energies there are faces too): a start far above the stationary
+    energies does not stretch the cells the stationary density needs.
     """
+    if H_top is None or not H_top < H_max / GROWTH:
+        return _faces(system, H_max, n_cells)
+    low = _faces(system, H_top, n_cells)
+    width, top, ext = low[-1] - low[-2], float(low[-1]), []
+    while top < H_max:
+        width *= GROWTH
+        top = min(top + width, H_max)
+        ext.append(top)
+    ext = np.asarray(ext)
+    kinks = Layout(system).kinks
+    kinks = kinks[(kinks > H_top) & (kinks < H_max)]
+    if kinks.size:           # a kink replaces the nearest face (widths stay graded)
+        near = np.clip(np.searchsorted(ext, kinks), 0, ext.size - 2)
+        ext[near] = kinks
+        ext = np.unique(ext)
+    return np.concatenate([low, ext])
+
+
+def _faces(system: VibroImpactSystem, H_max: float, n_cells: int) -> np.ndarray:
+    """:func:`energy_faces` of ``n_cells`` cells on [floor, H_max]."""
     lay = Layout(system)
     kinks = [float(E) for E in lay.kinks if lay.floor < E < H_max]
     if lay.A_max is not None and len(kinks) <= 1:
