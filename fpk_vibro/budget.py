@@ -36,20 +36,23 @@ _FORCED = contextvars.ContextVar("fpk_vibro_budget_forced", default=False)
 
 @dataclass(frozen=True)
 class Cost:
-    """An estimate: bytes of memory, units of work and seconds on this machine kind."""
+    """An estimate: bytes of memory, units of work and seconds on this machine kind;
+    ``note``: what the check should say beside it (e.g. a goal that may not be met)."""
     memory: float
     work: float
     unit: str
     seconds: float
     key: str = ""        # the option that drives the cost, named in a refusal
+    note: str = ""
 
     def __add__(self, other: "Cost") -> "Cost":
+        note = "; ".join(n for n in (self.note, other.note) if n)
         return Cost(max(self.memory, other.memory), self.work + other.work, self.unit,
-                    self.seconds + other.seconds, self.key or other.key)
+                    self.seconds + other.seconds, self.key or other.key, note)
 
     def describe(self) -> str:
         return (f"~{human_bytes(self.memory)}, {self.work:.3g} {self.unit}, "
-                f"~{human_seconds(self.seconds)}")
+                f"~{human_seconds(self.seconds)}" + (f" ({self.note})" if self.note else ""))
 
 
 def available_memory() -> float:

@@ -8,10 +8,14 @@ by ∫ p afterwards — the same normalised null vector.  (ii) On a tensor-produ
 mesh the geometric nested-dissection ordering of the DOF grid
 (:func:`grid_nested_dissection`) with SuperLU's diagonal pivoting
 (``diag_pivot_thresh=0.01``) fills ~1.5–2× less than COLAMD and is ~1.8× faster than
-MMD on A + Aᵀ for Q1.  For Q2 and general meshes MMD_AT_PLUS_A with the same
-diagonal pivoting is used (4–5× less fill than the grid ND for Q2, measured).  The
-backward error is checked and, if above 1e-10, improved by GMRES preconditioned
-with the LU factors.
+MMD on A + Aᵀ for Q1.  For Q2–Q4 and general meshes MMD_AT_PLUS_A with the same
+diagonal pivoting is used (4–5× less fill than the grid ND for Q2, measured), except
+on a DOF grid at least :data:`ELONGATED` times longer in x than in y, where MMD's fill
+grows like n² (Q2, paper case, cells nx × ny: 100 × 20 1.2e6 entries in 0.06 s,
+128 × 16 6.9e6 in 1.2 s, 200 × 20 5.5e7 in 62 s, 2000 × 2 1.8e8 in 238 s: the
+MemoryError of ``error_estimate()`` at nx = 1e5, ny = 2) and the grid ND stays linear
+(0.06, 0.06, 0.25, 0.04 s).  The backward error is checked and, if above 1e-10,
+improved by GMRES preconditioned with the LU factors.
 """
 from __future__ import annotations
 
@@ -19,8 +23,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["pinned_system", "relative_residual", "grid_nested_dissection", "is_p1", "nd_lu",
-           "solve_direct"]
+__all__ = ["ELONGATED", "pinned_system", "relative_residual", "grid_nested_dissection",
+           "is_p1", "nd_lu", "solve_direct"]
 
 
 def pinned_system(L: sp.spmatrix, unit: np.ndarray, pin: int | None = None
@@ -80,6 +84,12 @@ def grid_nested_dissection(xrank: np.ndarray, yrank: np.ndarray, leaf: int = 6
     return np.concatenate(out)
 
 
+#: x-DOFs / y-DOFs of a tensor grid from which the high-degree solve orders by the
+#: grid nested dissection, not MMD (module docstring; Q2 at cells 120 × 20 and Q4 at
+#: 48 × 8, ratio 6: ND 0.07 and 0.04 s, MMD 0.12 and 0.08 s; Q4 32 × 8: both 0.02 s).
+ELONGATED = 5.0
+
+
 def is_p1(rank: np.ndarray) -> bool:
     return bool(np.all(rank == np.arange(len(rank))))
 
@@ -99,7 +109,8 @@ def nd_lu(K: sp.spmatrix, perm: np.ndarray):
 
 
 def solve_direct(A: sp.csr_matrix, b: np.ndarray, grid, tol: float):
-    if grid is not None and not all(is_p1(r) for r in grid):
+    if grid is not None and not all(is_p1(r) for r in grid) \
+            and len(grid[0]) < ELONGATED * len(grid[1]):
         grid = None                      # measured: MMD beats this ND 4-5x for Q2
     if grid is not None:
         apply = nd_lu(A, grid_nested_dissection(*grid))

@@ -89,6 +89,8 @@ class Discretisation:
         self.auto: Any = None
         #: the options :func:`build` made it from (None when built otherwise)
         self.options: Any = None
+        #: notes on walls beyond the density's support (fem.mesh.Domain.beyond)
+        self.beyond: tuple[str, ...] = ()
 
     @property
     def kind(self) -> str:
@@ -134,6 +136,8 @@ class Discretisation:
                 "assembly": self.assembly, "discretisation": self.kind,
                 "discretisation_reason": f"requested (positivity={self.positivity!r})",
                 "positivity": self.positivity, "y_max": self.y_max, **extra}
+        if self.beyond:
+            info["walls_beyond_support"] = "; ".join(self.beyond)
         if sinfo.extra.get("fallback"):
             info["fallback"] = sinfo.extra["fallback"]
         sol = self.solution(p, **info)
@@ -188,6 +192,12 @@ def _build(system: VibroImpactSystem, opts: Any) -> Discretisation:
         disc = build(system, opts.replace(positivity=False))
         disc.auto = opts
         return disc
+    disc, dom = _assemble(system, opts)
+    disc.beyond = dom.beyond
+    return disc
+
+
+def _assemble(system: VibroImpactSystem, opts: Any) -> tuple[Discretisation, Any]:
     t0 = time.perf_counter()
     positivity, degree = opts.positivity, opts.degree
     if opts.mesh is None:
@@ -199,7 +209,7 @@ def _build(system: VibroImpactSystem, opts: Any) -> Discretisation:
             return Discretisation(system, m, 1, A.tocsr(), sp.diags(unit).tocsr(), unit,
                                   None, (xs, ys), pts, positivity, dom.walls,
                                   y_max=dom.y_max, assembly="tensor",
-                                  seconds=time.perf_counter() - t0)
+                                  seconds=time.perf_counter() - t0), dom
         if opts.element == "quad" and opts.assembly != "general":
             op = assemble_tensor(system, xs, ys, degree, dom)
             order = None
@@ -211,7 +221,7 @@ def _build(system: VibroImpactSystem, opts: Any) -> Discretisation:
             ranks = tuple(np.argsort(np.argsort(b.doflocs[0])) for b in (op.xbasis, op.ybasis))
             return Discretisation(system, m, degree, op.L, op.M, op.unit, order, (xs, ys), pts,
                                   positivity, dom.walls, ranks=ranks, y_max=dom.y_max,
-                                  assembly="tensor", seconds=time.perf_counter() - t0)
+                                  assembly="tensor", seconds=time.perf_counter() - t0), dom
     else:
         m = load_strip_mesh(system, opts.mesh, "fem")
         dom = mesh_domain(system, m)
@@ -219,7 +229,7 @@ def _build(system: VibroImpactSystem, opts: Any) -> Discretisation:
     L, M = assemble(system, basis)
     return Discretisation(system, m, degree, L, M, np.asarray(M.sum(axis=0)).ravel(), None,
                           None, basis.doflocs, positivity, dom.walls, y_max=dom.y_max,
-                          seconds=time.perf_counter() - t0)
+                          seconds=time.perf_counter() - t0), dom
 
 
 def discretise(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,

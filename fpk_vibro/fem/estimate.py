@@ -32,8 +32,11 @@ Levels (degree, nx): start at degree 2 on nx₀ cells (nx₀ from the wall layer
 difference to the next) is below ``rtol`` the current one is returned with it.
 A level whose cost would break the budget (:mod:`fpk_vibro.budget`), or bring the
 whole solve past :data:`MAX_SECONDS`, is refused in one line naming ``rtol`` and the
-estimate reached.  ``rtol`` judges the relative moments (:data:`JUDGED`); the L1
-error is reported.
+estimate reached (the estimate of the answer that level gives, its non-negative
+correction included).  The default (best effort) returns that level instead, flagged,
+with one RuntimeWarning naming its estimate and what to give instead.  ``rtol``
+judges the relative moments (:data:`JUDGED`); the L1 error is reported.  The levels,
+limits and the cost predicted before solving: :mod:`fpk_vibro.fem.ladder`.
 """
 from __future__ import annotations
 
@@ -53,6 +56,7 @@ from .compare import (  # noqa: F401 - KEYS ... l1_difference: also importable f
     l1_difference,
     worst,
 )
+from .ladder import DEFAULT_SECONDS, MAX_NX, MAX_SECONDS, start_nx
 from .solution import FEMSolution
 
 __all__ = ["ASSUMES", "SAFETY", "KEYS", "JUDGED", "worst", "error_estimate", "difference",
@@ -65,13 +69,7 @@ UNCONVERGED = 0.5
 ASSUMES = ("the difference to one level richer (degree k+1 on the same mesh, or h/2 at "
            "degree 4), times {safety:g}, plus the Gaussian tail beyond y_max; assumes the "
            "richer solution is the more accurate")
-#: Largest nx the adaptive solve tries.
-MAX_NX = 4096
-#: Longest the adaptive solve may take (s): the next level is refused when the time
-#: spent plus its predicted time (the last solve's, scaled by DOFs^1.4) passes it.
-MAX_SECONDS = 30.0
-#: The same for the default rtol (best effort: the last level is returned, flagged).
-DEFAULT_SECONDS = 10.0
+# (the ladder's limits and first level: fem.ladder, which also predicts its cost)
 
 
 def _options_of(sol) -> Any:
@@ -148,14 +146,9 @@ def _combine(diff: dict[str, float], tail: float, sol) -> dict[str, float]:
 def error_estimate(sol, *, richer=None) -> dict[str, Any]:
     """The estimate of the module docstring for ``sol`` (a :class:`FEMSolution`);
     ``richer``: the richer solution if already solved."""
-    from .discretisation import build
     t0 = time.perf_counter()
     if richer is None:
-        from ..budget import enforce
-        opts = richer_options(_options_of(sol), sol)
-        # the richer level is 2-4x the DOFs: refused in one line where it would not fit
-        enforce(opts.estimate(sol.system, "stationary"), "fem.error_estimate")
-        richer = build(sol.system, opts).stationary(opts.solver)
+        richer = _richer_solve(sol)
     est = _combine(difference(sol, richer), truncation(sol), sol)
     change = sol.info.get("correction")
     if change:
@@ -167,25 +160,40 @@ def error_estimate(sol, *, richer=None) -> dict[str, Any]:
     return out
 
 
+def _richer_solve(sol):
+    """The richer level of ``sol``, checked as every solve is (the option rules and
+    the budget, :mod:`fpk_vibro.budget`): it is 2-4x the DOFs, so refused in one line
+    where it would not fit (``fem.stationary(S, nx=100000, ny=2).error_estimate()``
+    died in SuperLU with a bare MemoryError: fem.direct, ELONGATED)."""
+    from .._checks import InputError
+    from ..budget import enforce
+    from .discretisation import build
+    where = "fem.error_estimate"
+    opts = richer_options(_options_of(sol), sol)
+    try:
+        opts.validate_for(sol.system, "stationary")
+    except InputError as exc:
+        raise InputError(f"{where}: {exc.keyed(exc.name)} (the richer level, degree "
+                         f"{opts.degree}, nx = {opts.nx})", where=where,
+                         name=exc.name) from None
+    enforce(opts.estimate(sol.system, "stationary"), where)
+    try:
+        return build(sol.system, opts).stationary(opts.solver)
+    except MemoryError:
+        key = "mesh" if opts.mesh is not None else "nx"
+        raise InputError(f"{where}: the richer level (degree {opts.degree}, {key} = "
+                         f"{opts.nx if key == 'nx' else 'refined'}) ran out of memory; "
+                         f"solve with a smaller {key} (or ny) and estimate that",
+                         where=where, name=key) from None
+
+
 # -- the adaptive solve -------------------------------------------------------------
-def start_nx(system, opts) -> int:
-    """Cells across x of the first level: 16, more where a wall layer needs it
-    (a node spacing at most the layer width at degree 2)."""
-    from .wall_layers import wall_layers
-    dom, _, _ = opts.replace(nx=16).grid(system)
-    width = dom.x1 - dom.x0
-    need = 16
-    for *_, ell in wall_layers(system):
-        need = max(need, math.ceil(width / (2 * ell)))
-    return int(min(need, MAX_NX))
-
-
 def adaptive(system, opts, rtol: float, *, best_effort: bool = False):
     """The solve of ``fem.stationary(system, rtol=...)`` (module docstring).
 
     ``best_effort`` (the default rtol, no option given): where the next level is
     beyond the budget the last level with an estimate is returned, flagged
-    ``under_resolved``, instead of refused.
+    ``under_resolved``, instead of refused, and one RuntimeWarning says so.
     """
     from .._checks import InputError
     from ..budget import enforce, forced
@@ -243,11 +251,11 @@ def adaptive(system, opts, rtol: float, *, best_effort: bool = False):
             est["not_reached"] = str(exc)
             break
         est = error_estimate(cur, richer=nxt)
-        e = worst(est)
-        history.append((level.degree, level.nx, e))
         fixed = correct(cur)
         if fixed is not cur:
             est = add_correction(est, fixed.info["correction"])
+        # (the estimate of the answer this level gives: its correction included)
+        history.append((level.degree, level.nx, worst(est)))
         best = (fixed, est)
         if worst(est) <= rtol:
             cur = fixed
@@ -260,7 +268,27 @@ def adaptive(system, opts, rtol: float, *, best_effort: bool = False):
     if "not_reached" in est:
         cur.info["rtol_not_reached"] = est["not_reached"]
     cur._apply_estimate()
+    if best_effort and worst(est) > rtol:
+        _warn_shortfall(cur, est, rtol, limit)
     return cur
+
+
+def _warn_shortfall(sol, est: dict[str, Any], rtol: float, limit: float) -> None:
+    """The one RuntimeWarning of a best-effort solve that missed ``rtol``: the
+    estimate of what it returns, and what to do."""
+    import warnings
+    e = worst(est)
+    key = max((k for k in JUDGED if k in est), key=lambda k: float(est[k]))
+    nx = int(sol._tensor[0].size - 1) if sol._tensor is not None else None
+    how = ("may be wrong by more than 100 % (unbounded: its levels disagree)"
+           if not math.isfinite(e) else "may be wrong by more than 100 %" if e > 1.0
+           else "misses rtol")
+    warnings.warn(f"fem.stationary: the default solve (rtol = {rtol:g}, best effort within "
+                  f"{limit:g} s) stopped at degree {sol.degree}, nx = {nx} with an estimated "
+                  f"error of {e:.2g} ({key}): the answer {how}; give nx and degree (e.g. "
+                  f"degree=4, nx={2 * nx if nx else 64}, then sol.error_estimate()) or "
+                  "rtol for up to 30 s (info['rtol_not_reached'] says why it stopped)",
+                  RuntimeWarning, stacklevel=4)
 
 
 def add_correction(est: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:

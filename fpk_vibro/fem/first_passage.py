@@ -68,7 +68,7 @@ HORIZON = 40.0
 
 def estimate(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_steps: int,
              parts: int = 1) -> Cost:
-    """Memory and time of a call (:func:`fpk_vibro.fem.options.passage_cost`)."""
+    """Memory and time of a call (:func:`passage_cost`)."""
     return passage_cost(system, nx, ny, degree, n_steps, parts)
 
 

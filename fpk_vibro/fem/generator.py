@@ -29,7 +29,7 @@ import skfem
 from ..model import VibroImpactSystem
 from . import forms
 from .impact import coupling_matrix, wall_matrix_1d
-from .mesh import Domain, StripEnd, wall_restitutions
+from .mesh import Domain, StripEnd, ends_at_wall, wall_restitutions
 
 __all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
            "assemble_tensor_bases", "tensor_index", "tensor_to_basis", "kron_sum",
@@ -57,22 +57,31 @@ def mesh_domain(system: VibroImpactSystem, mesh: skfem.Mesh) -> Domain:
     """The walls of the strip covered by ``mesh`` (docs/theory.md, §Walls).
 
     Each wall of the system carries its own r; a truncated side without a wall is
-    an elastic wall (r = 1).  Raises ValueError if a wall is not on the mesh edge.
+    an elastic wall (r = 1), and so is an edge between the cut and a wall beyond the
+    density's support (:func:`fpk_vibro.fem.mesh.beyond_support`).  Raises ValueError
+    if a wall is not on the mesh edge.
     """
     x0, x1 = float(mesh.p[0].min()), float(mesh.p[0].max())
     y0, y1 = float(mesh.p[1].min()), float(mesh.p[1].max())
     tol = 1e-9 * max(1.0, x1 - x0)
-    for side, edge, wall in (("left", x0, system.left), ("right", x1, system.right)):
+    rs, beyond = list(wall_restitutions(system)), []
+    for k, (side, edge, wall) in enumerate((("left", x0, system.left),
+                                            ("right", x1, system.right))):
         if wall is not None and abs(edge - wall.position) > tol:
-            raise ValueError(f"mesh: its {side} edge x = {edge} is not the {side} wall "
-                             f"x = {wall.position}")
+            if not ends_at_wall(system, side, edge, tol):
+                raise ValueError(f"mesh: its {side} edge x = {edge} is not the {side} wall "
+                                 f"x = {wall.position}")
+            rs[k] = 1.0          # the elastic cut of a wall beyond the support
+            beyond.append(f"the {side} wall x = {wall.position:g} lies beyond the "
+                          f"density's support: the mesh ends at x = {edge:.4g} with an "
+                          "elastic end, as without that wall")
     if abs(y0 + y1) > 1e-9 * max(1.0, y1):
         raise ValueError(f"mesh: y-range [{y0}, {y1}] must be symmetric about y = 0")
     if not np.any(np.abs(mesh.p[1]) <= 1e-12 * y1):
         raise ValueError("mesh: y = 0 must be a mesh line (the walls' outflow and inflow "
                          "halves must be unions of cell edges)")
-    rl, rr = wall_restitutions(system)
-    return Domain(x0, x1, y1, (StripEnd(x0, rl, -1), StripEnd(x1, rr, +1)))
+    return Domain(x0, x1, y1, (StripEnd(x0, rs[0], -1), StripEnd(x1, rs[1], +1)),
+                  tuple(beyond))
 
 
 def assemble(system: VibroImpactSystem, basis: skfem.CellBasis, *,

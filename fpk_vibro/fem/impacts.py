@@ -61,10 +61,16 @@ def impact_statistics(sol) -> dict[str, dict[str, float]]:
     """Per wall: ``rate``, ``mean_speed``, ``mean_square_speed``, ``energy_rate``.
 
     Computed from the (clipped non-negative) trace of p_h on each wall of the system;
-    a truncated side without a wall has no impacts and no entry.
+    a truncated side without a wall has no impacts and no entry; a wall beyond the
+    density's support, where the strip ends short of it (:mod:`fpk_vibro.fem.mesh`),
+    has none either: rate and energy rate 0, mean speeds nan.
     """
     out: dict[str, dict[str, float]] = {}
     for side, wall in sol.system.walls:
+        if abs(_edge(sol, side) - wall.position) > 1e-9 * max(1.0, sol._x1 - sol._x0):
+            out[side] = {"rate": 0.0, "mean_speed": float("nan"),
+                         "mean_square_speed": float("nan"), "energy_rate": 0.0}
+            continue
         _, u, w = _wall_trace(sol, side)
         p = _trace(sol, side, u)
         m1, m2, m3 = (float(np.sum(w * u ** k * p)) for k in (1, 2, 3))
@@ -79,6 +85,11 @@ def impact_speed_pdf(sol, wall: str, u: Any) -> np.ndarray:
     sol.wall_named(wall)
     u = np.asarray(u, dtype=float)
     rate = impact_statistics(sol)[wall]["rate"]
+    if rate == 0.0:
+        from .._checks import invalid
+        raise invalid("impact_speed_pdf", "wall", "a wall the density reaches", wall,
+                      "it lies beyond the density's support (sol.info"
+                      "['walls_beyond_support']): no impacts")
     flat = np.abs(u.ravel())
     f = flat * _trace(sol, wall, flat) / rate
     return np.where(u.ravel() >= 0, f, 0.0).reshape(u.shape)

@@ -13,11 +13,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .._checks import InputError, invalid
+from .._checks import InputError, invalid, retired
 from ..budget import Cost
 from ..model import VibroImpactSystem
 from ..options import Options as _Options
 from ..options import PerMode, option
+from .ladder import DEFAULT_RTOL, WALL_GRADING, ladder_cost, uses_ladder  # noqa: F401
+from .mesh import thermal_velocity
 from .solve import SOLVERS
 from .strip_mesh import load_strip_mesh
 from .wall_layers import MAX_CONTRAST, check_wall_layers, wall_layers  # noqa: F401
@@ -47,17 +49,13 @@ PASSAGE_NX = 32
 #: enter the error estimate (fem.nonnegative); in a transient "auto" is Galerkin.
 POSITIVITY = (False, True, "auto", "quick", "van-albada", "first-order", "upwind", "afc")
 TENSOR_ONLY = (True, "quick", "van-albada", "first-order")
+#: Retired positivity values, accepted for one release (docs/measurements.md, §Which option when).
+RETIRED = {"afc": ("its flux correction does not converge, even on the paper case",
+                   "\"auto\" (non-negative on any mesh, 12-290 times closer when measured)")}
 SCHEMES = ("bdf2", "theta", "euler")
 #: Default number of cells across the strip in x, per degree (degrees 3 and 4:
 #: the structured tensor mesh only; about the DOFs of Q2 at nx = 48).
 DEFAULT_NX = {1: 128, 2: 48, 3: 32, 4: 24}
-#: The accuracy goal of a stationary solve given no mesh, nx, ny, degree or
-#: positivity (fem.estimate.adaptive; measured cost: docs/measurements.md).
-DEFAULT_RTOL = 1e-4
-#: The x-grading power toward walls with r < 1 that rtol's meshes use
-#: (fem.mesh.wall_nodes; 2 against 3 and uniform on 20 random scenes:
-#: docs/measurements.md, §FE error estimate and rtol).
-WALL_GRADING = 2.0
 
 
 def _mesh(name: str, value: Any, where: str | None) -> Any:
@@ -72,6 +70,8 @@ def _mesh(name: str, value: Any, where: str | None) -> Any:
 def _positivity(name: str, value: Any, where: str | None) -> Any:
     for p in POSITIVITY:
         if type(value) is type(p) and value == p:
+            if p in RETIRED:
+                retired(where, name, p, *RETIRED[p])
             return p
     raise invalid(where, name, f"false, true or one of {list(POSITIVITY[2:])}", value)
 
@@ -123,11 +123,12 @@ class Options(_Options):
                                 "(first passage: nx, ny, n_steps doubled from the given "
                                 "ones until its two-level estimate meets it)",
                                 "float", lo=1e-10, hi=0.5, modes=ALL,
-                                auto="stationary: 1e-4 (best effort: flagged, not "
-                                     "refused, when not reached) unless mesh, nx, ny or "
-                                     "positivity is given, then no adaptation (the "
-                                     "estimate is still available: sol.error_estimate()); "
-                                     "transient, first passage: no adaptation")
+                                auto="stationary: 1e-4 (best effort: flagged and one "
+                                     "RuntimeWarning, not refused, when not reached) "
+                                     "unless mesh, nx, ny or positivity is given, then no "
+                                     "adaptation (the estimate is still available: "
+                                     "sol.error_estimate()); transient, first passage: no "
+                                     "adaptation")
     n_steps: int = option(200, "BDF2 steps of the first-passage reliability march per 5 "
                           "mean times (at most 8 n_steps in all)", "int", lo=10,
                           hi=10 ** 6, modes=FP)
@@ -143,15 +144,15 @@ class Options(_Options):
                                         auto="2 in the rtol solve, else 1 (uniform)")
     positivity: bool | str = option(PerMode("auto", False),
                                     "non-negative discretisation (degree 1): the positive "
-                                    "tensor-grid generator, or algebraic upwinding / AFC "
+                                    "tensor-grid generator, or algebraic upwinding "
                                     "(stationary, any mesh); \"auto\": Galerkin made "
                                     "non-negative by a local mass-keeping correction whose "
                                     "changes enter the error estimate (in a transient "
                                     "\"auto\" is Galerkin)",
                                     "custom", check=_positivity,
                                     allowed="false, true, \"auto\", \"quick\", "
-                                            "\"van-albada\", \"first-order\", \"upwind\" "
-                                            "or \"afc\"")
+                                            "\"van-albada\", \"first-order\" or "
+                                            "\"upwind\" (\"afc\": retired)")
     assembly: str = option("auto", "Kronecker-product or general skfem assembly", "choice",
                            choices=("auto", "tensor", "general"), modes=S)
     dt: float | None = option(None, "time step (the largest, with adaptive steps)", "float",
@@ -253,7 +254,7 @@ class Options(_Options):
                           "(no mesh)")
             if pos in TENSOR_ONLY:
                 raise bad("positivity", f"= {pos!r} needs the built-in structured "
-                          "quadrilateral mesh; use 'upwind' or 'afc' with a mesh")
+                          "quadrilateral mesh; use 'auto' or 'upwind' with a mesh")
             m = load_strip_mesh(system, mesh, where)
             reach = float(abs(m.p[1]).max())
             if reach < thermal_velocity(system):
@@ -266,7 +267,7 @@ class Options(_Options):
             raise bad("assembly", "= 'tensor' needs element = 'quad'")
         if pos in TENSOR_ONLY and (self.element != "quad" or self.assembly == "general"):
             raise bad("positivity", f"= {pos!r} needs element = 'quad' and tensor assembly "
-                      "(a tensor grid); use 'upwind' or 'afc' otherwise")
+                      "(a tensor grid); use 'auto' or 'upwind' otherwise")
         if self.y_max is None and system.c == 0:
             raise bad("y_max", "must be given when c = 0 (no damping bound on the energy "
                       "tail; all dissipation comes from impacts)")
@@ -290,23 +291,27 @@ class Options(_Options):
                           f"{h_y:.3g} (y_max = {dom.y_max:.3g}, ny = {ny}): measured E[H] "
                           "3.3e8 times the true one at y_max = 1e6")
         if system.c > 0 and system.has_barrier:
-            # (rtol chooses nx itself, from the same layers: estimate.start_nx)
-            check_wall_layers(self, system, dom, nx, bad, layers=self.rtol is None)
+            # (rtol and the default choose nx themselves, from the same layers: start_nx)
+            layers = self.rtol is None and not uses_ladder(self, mode)
+            check_wall_layers(self, system, dom, nx, bad, layers=layers)
 
     def validate_initial(self, system: VibroImpactSystem, init: Any) -> None:
         """The mean of a Gaussian start must lie inside the truncated strip."""
         if not getattr(init, "is_gaussian", False):
             return
-        if self.discretisation is not None:
-            y_max = float(abs(self.discretisation.points[1]).max())
-        elif self.mesh is not None:
-            y_max = float(abs(load_strip_mesh(system, self.mesh).p[1]).max())
-        else:
-            y_max = self.grid(system)[0].y_max
-        if abs(init.mean[1]) > y_max:
-            raise InputError(f"fem.transient: initial mean[1] must lie in the truncated strip "
-                             f"|y| <= y_max = {y_max:.4g}; got {init.mean[1]!r}",
-                             where="fem.transient", name="initial")
+        if self.discretisation is not None or self.mesh is not None:
+            p = (self.discretisation.points if self.discretisation is not None
+                 else load_strip_mesh(system, self.mesh).p)
+            x0, x1, y_max = float(p[0].min()), float(p[0].max()), float(abs(p[1]).max())
+        else:          # (a side without a wall, or a wall beyond the support: cut)
+            dom = self.grid(system)[0]
+            x0, x1, y_max = dom.x0, dom.x1, dom.y_max
+        for k, bad in ((1, abs(init.mean[1]) > y_max), (0, not x0 <= init.mean[0] <= x1)):
+            if bad:
+                strip = f"|y| <= y_max = {y_max:.4g}" if k else f"{x0:.4g} <= x <= {x1:.4g}"
+                raise InputError(f"fem.transient: initial mean[{k}] must lie in the truncated "
+                                 f"strip {strip}; got {init.mean[k]!r}",
+                                 where="fem.transient", name="initial")
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "_degree_given", self.degree is not None)
@@ -342,11 +347,13 @@ class Options(_Options):
 
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
         """Memory, DOFs × steps and seconds (constants: docs/costs.md); first
-        passage: :func:`passage_cost` of one part of the safe set."""
+        passage: :func:`passage_cost` of one part."""
         if mode == "first_passage":
             nx = PASSAGE_NX if self.nx is None else self.nx
             return passage_cost(system, nx, 2 * nx if self.ny is None else self.ny,
                                 self.degree, self.n_steps)
+        if uses_ladder(self, mode):        # the rtol ladder, not one solve
+            return ladder_cost(system, self)
         n = float(self.ndofs(system))
         fill = 2200.0 if self.degree == 1 else 3000.0
         lu = n * fill * max(1.0, math.log2(max(n, 2.0)) / 17.0)
@@ -392,9 +399,3 @@ def passage_cost(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_ste
     steps = 8.0 * n_steps
     return Cost(80e6 + 2.0 * lu, parts * n * steps, "DOF-steps",
                 0.2 + parts * (5.0 * factor_s + steps * 2.0 * 3e-7 * n), "nx")
-
-
-def thermal_velocity(system: VibroImpactSystem) -> float:
-    """sqrt(D1/λ): the least |y| extent of a truncated strip (``y_max`` or a mesh)."""
-    from ..scales import energy_scale
-    return math.sqrt(energy_scale(system))

@@ -10,6 +10,7 @@ import numpy as np
 import skfem
 
 from ..solution import Rule, Stored
+from .mesh import ends_at_wall
 from .options import Options
 
 __all__ = ["state", "META_SCHEMA", "array_schema", "check_state", "state_mesh", "state_info",
@@ -91,7 +92,7 @@ def _check_walls(system, arrays: dict[str, np.ndarray]) -> None:
     for what, x0, x1 in ends:
         tol = 1e-9 * max(1.0, x1 - x0)
         for side, edge, wall in (("left", x0, system.left), ("right", x1, system.right)):
-            if wall is not None and not abs(edge - wall.position) <= tol:
+            if not ends_at_wall(system, side, edge, tol):     # (or a wall beyond the support)
                 raise ValueError(f"the stored system's {side} wall x = {wall.position!r} "
                                  f"is not the {side} edge of the {what} (x = {edge!r}): "
                                  "the system and the mesh do not belong together")

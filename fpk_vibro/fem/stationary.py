@@ -35,7 +35,10 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         ``ny`` the even number giving cells with h_y ≈ 1.5 h_x, at most 4 nx.
     y_max : float, optional
         Truncation |y| < y_max; default from the energy tail (mass beyond < 1e-8,
-        :func:`fpk_vibro.fem.mesh.domain`, :mod:`fpk_vibro.scales`).
+        :func:`fpk_vibro.fem.mesh.domain`, :mod:`fpk_vibro.scales`).  In x the strip
+        ends at the walls, or where the same tail leaves less than 1e-8 of the mass
+        (a side without a wall, or a wall beyond the density's support: an elastic
+        end there, as without that wall; ``info["walls_beyond_support"]``).
     degree : {1, 2, 3, 4}
         Default 1, used with a mesh, nx or ny (otherwise rtol chooses 2–4).  Q1/P1
         or Q2/P2 Lagrange elements; 3, 4: Q3/Q4 on the structured quad mesh
@@ -66,9 +69,10 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         generator unlimited (provably ≥ 0, first order, one linear solve).  These
         need the structured quad mesh with tensor assembly.  ``"upwind"``:
         algebraic discrete upwinding of the Galerkin matrix (any mesh; ≥ 0 but
-        strongly diffusive).  ``"afc"``: upwinding plus Kuzmin's flux correction
-        by defect correction (does not converge on the hard cases; a
-        RuntimeWarning says so).  ``False``: plain Galerkin (order 2 on smooth
+        strongly diffusive).  ``"afc"`` (retired: a DeprecationWarning; it goes in
+        the next release): upwinding plus Kuzmin's flux correction by defect
+        correction, which does not converge (a RuntimeWarning says so); use
+        ``"auto"``.  ``False``: plain Galerkin (order 2 on smooth
         cases, negative next to (±Δ, 0) on hard cases).  Default ``"auto"``:
         Galerkin, with any negative nodal value removed by a local mass-keeping
         redistribution (:mod:`fpk_vibro.fem.nonnegative`); the L1 and moment
@@ -87,7 +91,8 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         budget, 30 s in all or nx = 4096 would be passed first.  Default: 1e-4
         when none of mesh, nx, ny, degree, positivity is given, as a best effort
         (10 s at most; where it is not reached the last estimated level is
-        returned with ``info["under_resolved"]`` and ``info["rtol_not_reached"]``);
+        returned with ``info["under_resolved"]``, ``info["rtol_not_reached"]`` and one
+        RuntimeWarning naming its estimated error and what to give instead);
         otherwise no adaptation, and ``sol.error_estimate()`` is still available
         (one richer solve, on first call).
 
@@ -101,6 +106,12 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         Naming the offending parameter, before any work; also when the estimated
         memory or run time is beyond the machine (:mod:`fpk_vibro.budget`).
 
+    Warns
+    -----
+    RuntimeWarning
+        Once, where the default (best-effort) solve misses rtol = 1e-4: its estimated
+        error, and the options to give instead.
+
     Notes
     -----
     Every option is declared once in :class:`fpk_vibro.fem.Options`.
@@ -108,11 +119,12 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     chosen = (mesh is None and nx is None and ny is None and degree == 1
               and positivity == "auto" and element == "quad" and assembly != "general")
     best_effort = rtol is None and chosen
-    if best_effort:
-        rtol = DEFAULT_RTOL
+    # (best effort: rtol stays None in the options, as in a scene's, so the checks
+    # and the cost are those of the default's ladder: fem.ladder)
     opts, _ = Options.prepare(system, "stationary", locals())
-    if opts.rtol is not None:
-        sol = adaptive(system, opts, opts.rtol, best_effort=best_effort)
+    if opts.rtol is not None or best_effort:
+        sol = adaptive(system, opts, DEFAULT_RTOL if best_effort else opts.rtol,
+                       best_effort=best_effort)
     else:
         sol = build(system, opts).stationary(opts.solver)
         sol._options = opts
