@@ -40,6 +40,9 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    # MathJax from the package, copied to _static/mathjax: the mathematics renders
+    # without a network (sphinx.ext.mathjax alone loads it from a CDN)
+    "sphinx-mathjax-offline",
     "numpydoc",
     "sphinx_gallery.gen_gallery",
 ]
@@ -138,7 +141,7 @@ _OUTPUT_CACHE: dict[str, str] = {}
 def _command_output(args: str) -> str:
     """What ``python -m fpk_vibro ARGS`` prints (run in this process)."""
     if args not in _OUTPUT_CACHE:
-        from fpk_vibro import cli
+        from fpk_vibro.app import cli
 
         buf = io.StringIO()
         old = os.environ.get("COLUMNS")

@@ -10,11 +10,14 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+import os
+import sys
+import warnings
 from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["InputError", "invalid", "show", "check_int", "check_float", "check_choice",
-           "check_bool", "check_points", "closest"]
+__all__ = ["InputError", "invalid", "retired", "show", "check_int", "check_float",
+           "check_choice", "check_bool", "check_points", "closest"]
 
 #: Longest value representation put in a message.
 _SHOW = 80
@@ -68,6 +71,29 @@ def invalid(where: str | None, name: str, allowed: str, value: Any, why: str = "
     if why:
         msg += f" ({why})"
     return InputError(msg, where=where, name=name)
+
+
+def retired(where: str | None, name: str, value: Any, why: str, use: str) -> None:
+    """Warn that ``name`` = ``value`` is retired: still accepted, for one release.
+
+    The DeprecationWarning reads ``<where>: <name> = <value> is retired (<why>) and
+    goes in the next release; use <use>`` and names the first caller outside the
+    package, so that Python shows it where that caller is the user's script.
+
+    Parameters
+    ----------
+    where, name, value
+        As for :func:`invalid`: the caller, the option and its retired value.
+    why : str
+        Why it is retired (what the measurements showed).
+    use : str
+        What to give instead.
+    """
+    frame, level, package = sys._getframe(0), 1, os.path.dirname(__file__) + os.sep
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(at(where, f"{name} = {show(value)} is retired ({why}) and goes in the "
+                            f"next release; use {use}"), DeprecationWarning, stacklevel=level)
 
 
 def closest(word: Any, options: Iterable[str]) -> str:

@@ -1,11 +1,4 @@
 """Deprecated path: fpk_vibro.cli moved to fpk_vibro.app.cli (kept for one release)."""
-import sys
-import warnings
+from ._moved import alias
 
-from .app import cli as _module
-
-warnings.warn("fpk_vibro.cli moved to fpk_vibro.app.cli; the old path goes in the next release",
-              DeprecationWarning, stacklevel=2)
-if __name__ == "__main__":     # python -m fpk_vibro.cli
-    raise SystemExit(_module.main())
-sys.modules[__name__] = _module
+alias(__spec__.name, run=__name__ == "__main__")

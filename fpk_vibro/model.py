@@ -32,7 +32,7 @@ __all__ = ["VibroImpactSystem", "Wall", "BARRIER_KINDS", "FIELDS", "WALL_FIELDS"
 BARRIER_KINDS = ("both", "right", "left", "none")
 
 #: The model's fields, declared once: validation here, the scene's [system] and
-#: [barriers] tables and the README's key table come from this.
+#: [barriers] tables and the key table (docs/guide/keys.md) come from this.
 FIELDS: dict[str, Option] = {
     "a": Option(REQUIRED, "linear stiffness", "float", lo=float("-inf"), unit="1/s²",
                 scene="system.a"),

@@ -134,7 +134,7 @@ class Option:
         return self.check(name, value, where)
 
     def describe(self) -> str:
-        """The allowed values, for messages and the README."""
+        """The allowed values, for messages and the table of scene keys."""
         if self.kind == "int":
             text = f"integer in [{int(self.lo)}, {int(self.hi)}]" if math.isfinite(self.hi) \
                 else f"integer >= {int(self.lo)}"

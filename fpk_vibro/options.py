@@ -8,7 +8,7 @@ Each method declares its options as a frozen dataclass (``averaging.Options``,
 - the scene schema of the method's table (``[averaging]``, ``[fem]``,
   ``[montecarlo]``) and its validation (:meth:`Options.from_scene`),
 - the sizes of a reduced run (:meth:`Options.reduce`), and
-- the README's table of keys (:func:`fpk_vibro.scenes.schema_table`).
+- the table of scene keys, docs/guide/keys.md (:func:`fpk_vibro.app.scenes.schema_table`).
 
 A keyword given as a Python object (a mesh, a callable) is declared with the form
 it takes in a scene (a file).  A keyword that a scene sets elsewhere (the output

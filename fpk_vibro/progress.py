@@ -1,23 +1,37 @@
 """Progress of long runs: one mechanism (tqdm) for Monte Carlo, FE transients and sweeps.
 
 Shown on an interactive terminal or in a Jupyter notebook (``tqdm.auto`` picks the
-widget), after two seconds, on stderr; ``progress=False`` (the CLI's ``--quiet``)
-or output that is not interactive turns it off.  Within :func:`as_lines` (the worker
-processes of a sweep, whose bars would overwrite each other on one terminal) a
-progress bar is one plain line instead, printed once its work has run two seconds.
+widget), after :data:`LINE_DELAY` seconds (2, or ``FPK_VIBRO_PROGRESS_DELAY``), on
+stderr; ``progress=False`` (the CLI's ``--quiet``) or output that is not interactive
+turns it off.  Within :func:`as_lines` (the worker processes of a sweep, whose bars
+would overwrite each other on one terminal) a progress bar is one plain line instead,
+printed once its work has run that long.
 """
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import os
 import sys
 import time
 from typing import Iterator
 
 __all__ = ["Progress", "interactive", "as_lines", "LINE_DELAY"]
 
-#: Seconds of work after which a progress line (:func:`as_lines`) is printed.
-LINE_DELAY = 2.0
+def _delay() -> float:
+    """``FPK_VIBRO_PROGRESS_DELAY`` (seconds; default 2), or 2 if it is not a number
+    >= 0."""
+    try:
+        value = float(os.environ.get("FPK_VIBRO_PROGRESS_DELAY", "2"))
+    except ValueError:
+        return 2.0
+    return value if value >= 0.0 else 2.0
+
+
+#: Seconds of work after which a bar or a progress line (:func:`as_lines`) is shown:
+#: the environment variable ``FPK_VIBRO_PROGRESS_DELAY`` (0 shows every stage as it
+#: starts; the fault tests wait for such a line), else 2.
+LINE_DELAY = _delay()
 
 _LINES: contextvars.ContextVar[str | None] = contextvars.ContextVar(
     "fpk_vibro_progress_lines", default=None)
@@ -73,7 +87,7 @@ class Progress:
         elif self.enabled:
             from tqdm.auto import tqdm
             fraction = total == 1.0
-            self._bar = tqdm(total=100.0 if fraction else total, desc=label, delay=2.0,
+            self._bar = tqdm(total=100.0 if fraction else total, desc=label, delay=LINE_DELAY,
                              unit="%" if fraction else (unit or "it"), file=sys.stderr,
                              leave=False, dynamic_ncols=True,
                              bar_format=("{desc}: {percentage:3.0f}%|{bar}| "

@@ -1,9 +1,4 @@
 """Deprecated path: fpk_vibro.runner moved to fpk_vibro.app.runner (kept for one release)."""
-import sys
-import warnings
+from ._moved import alias
 
-from .app import runner as _module
-
-warnings.warn("fpk_vibro.runner moved to fpk_vibro.app.runner; the old path goes in the next release",
-              DeprecationWarning, stacklevel=2)
-sys.modules[__name__] = _module
+alias(__spec__.name, run=__name__ == "__main__")

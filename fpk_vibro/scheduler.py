@@ -1,9 +1,4 @@
 """Deprecated path: fpk_vibro.scheduler moved to fpk_vibro.app.scheduler (kept for one release)."""
-import sys
-import warnings
+from ._moved import alias
 
-from .app import scheduler as _module
-
-warnings.warn("fpk_vibro.scheduler moved to fpk_vibro.app.scheduler; the old path goes in the next release",
-              DeprecationWarning, stacklevel=2)
-sys.modules[__name__] = _module
+alias(__spec__.name, run=__name__ == "__main__")

@@ -1,9 +1,4 @@
 """Deprecated path: fpk_vibro.study_plots moved to fpk_vibro.app.study_plots (kept for one release)."""
-import sys
-import warnings
+from ._moved import alias
 
-from .app import study_plots as _module
-
-warnings.warn("fpk_vibro.study_plots moved to fpk_vibro.app.study_plots; the old path goes in the next release",
-              DeprecationWarning, stacklevel=2)
-sys.modules[__name__] = _module
+alias(__spec__.name, run=__name__ == "__main__")

@@ -13,7 +13,7 @@ nx = 16, BDF2 tol 6e-4 or 1.6e-4, against degree 4 on nx = 16 or 32):
 References: :data:`REFERENCE`, degree 4, nx = 32 (wall grading 2), BDF2 tol 3e-6,
 within 4e-4 (relative) of degree 3, nx = 24, tol 1e-5 at every time and moment (18 s
 and 67 s for the paper's case: stored, not run here); the point-mass packet:
-:data:`fpk_vibro.fem.benchmark_transient.REFERENCE` (Q2, nx = 96, tol 3e-5; within
+:data:`fpk_vibro.benchmarks.fem_transient.REFERENCE` (Q2, nx = 96, tol 3e-5; within
 1e-4 of Q2, nx = 64, tol 1e-5).
 
 Measured (estimate / true error): 1.00–1.20 wherever the true error exceeds 1 %,
@@ -31,7 +31,7 @@ import pytest
 
 from fpk_vibro import VibroImpactSystem, averaging, fem, references
 from fpk_vibro.averaging import EnergyGridSolution
-from fpk_vibro.fem import benchmark_transient as bench
+from fpk_vibro.benchmarks import fem_transient as bench
 from fpk_vibro.keys import JUDGED, moment_scale
 
 PACKET = {"mean": (0.0, 0.5), "std": (0.1, 0.1)}

@@ -5,8 +5,8 @@ import json
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fpk_vibro.runner import run_scene
-from fpk_vibro.scenes import SceneError, check_scene, parse_scene
+from fpk_vibro.app.runner import run_scene
+from fpk_vibro.app.scenes import SceneError, check_scene, parse_scene
 
 
 @st.composite

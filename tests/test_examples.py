@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from fpk_vibro.runner import run_scene
-from fpk_vibro.scenes import load_scene
+from fpk_vibro.app.runner import run_scene
+from fpk_vibro.app.scenes import load_scene
 
 EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.toml"))
 
@@ -13,7 +13,7 @@ EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.toml"))
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_example_scene_is_checked_then_runs(tmp_path, path, capsys):
     """`check --reduced` accepts it, then `run --reduced` runs it without error."""
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
     assert cli.main(["check", str(path), "--reduced"]) == 0
     assert "estimated total" in capsys.readouterr().out
     assert cli.main(["run", str(path), "--reduced", "--out", str(tmp_path), "--quiet",

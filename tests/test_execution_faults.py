@@ -176,7 +176,7 @@ def test_workers_hold_no_lock_and_die_with_the_run(tmp_path):
 def test_the_lock_is_not_inherited_by_a_fork(tmp_path):
     """Code that forks while a run holds its directory (a library user, a plugin)
     leaves the lock with the run: the child drops it."""
-    from fpk_vibro.outdir import OutputDir
+    from fpk_vibro.app.outdir import OutputDir
     out = tmp_path / "o"
     with OutputDir(out):
         r, w = os.pipe()

@@ -159,7 +159,8 @@ WRITER = """
 import sys, numpy as np
 from pathlib import Path
 from fpk_vibro.io import atomic_json, atomic_savez
-from fpk_vibro import VibroImpactSystem, fem, plotting
+from fpk_vibro import VibroImpactSystem, fem
+from fpk_vibro.app import plotting
 out = Path(sys.argv[1])
 sol = fem.stationary(VibroImpactSystem.paper(r=0.9), nx=8, ny=16)
 big = np.random.default_rng(0).random(400_000)
@@ -250,7 +251,8 @@ def test_a_full_disk_ends_in_one_line_and_leaves_complete_files(tmp_path, tiny_f
 
 def test_full_disk_injected(tmp_path, monkeypatch, capsys):
     import errno
-    from fpk_vibro import cli, io
+    from fpk_vibro import io
+    from fpk_vibro.app import cli
 
     def full(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -300,7 +302,7 @@ def test_two_runs_into_one_directory_never_mix(tmp_path):
 
 
 def test_study_name_cannot_leave_the_results_area(tmp_path):
-    from fpk_vibro.scenes import parse_scene
+    from fpk_vibro.app.scenes import parse_scene
     data = {"system": dict(a=1, b=0.2, c=0.025, D1=0.01), "barriers": dict(delta=0.6),
             "study": dict(methods=["averaging"], name="../../x")}
     assert parse_scene(data).output_dir == Path("results") / "x"
@@ -309,7 +311,7 @@ def test_study_name_cannot_leave_the_results_area(tmp_path):
 
 
 def test_output_directory_that_is_a_file(tmp_path, capsys):
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
     path = tmp_path / "s.toml"
     path.write_text(AVG)
     (tmp_path / "afile").write_text("x")
@@ -319,7 +321,7 @@ def test_output_directory_that_is_a_file(tmp_path, capsys):
 
 
 def test_results_json_is_strict_and_readable_by_colleagues(tmp_path):
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
     text = AVG.replace('methods = ["averaging"]', 'methods = ["averaging"]\ntimes = [0.0, 1.0]')
     text += "\n[initial]\nmean = [0.0, 1.0]\nstd = [0.05, 0.05]\n"
     path = tmp_path / "s.toml"
@@ -335,9 +337,9 @@ def test_results_json_is_strict_and_readable_by_colleagues(tmp_path):
 def test_a_task_of_a_stopped_run_writes_nothing(tmp_path):
     """A Dask task cannot be killed: when it ends after its run stopped, it must not
     write into the directory (another run may own it by then)."""
-    from fpk_vibro.outdir import OutputDir
-    from fpk_vibro.runner import _point_job
-    from fpk_vibro.scenes import load_scene
+    from fpk_vibro.app.outdir import OutputDir
+    from fpk_vibro.app.runner import _point_job
+    from fpk_vibro.app.scenes import load_scene
     path = tmp_path / "s.toml"
     path.write_text(AVG)
     sc = load_scene(path)

@@ -16,7 +16,8 @@ from conftest import paper_tables
 from test_faults import alive, children, start_on_a_terminal, wait_for
 
 #: The issue's sweep (n_paths = 20000; t_sample 2500 rather than 300 s, so that the bias
-#: run lasts a few seconds: its progress line is shown after two seconds of it).
+#: run lasts a few seconds and the signal, sent once its progress line is seen, lands
+#: in it).
 SWEEP = paper_tables() + """
 [study]
 methods = ["montecarlo"]
@@ -49,11 +50,20 @@ seed = 1
 formats = ["json"]
 """
 
-#: The sign: the progress line of Monte Carlo's second run, sampling (a bar in this
-#: process; a plain line from a worker, printed two seconds into the run: past its
-#: burn-in).  A transient's second run has no burn-in: its bar is the sign.
+#: The sign: the progress line of Monte Carlo's second run (a bar in this process,
+#: sampling; a plain line from a worker).  Every stage shows its progress as it starts
+#: (FPK_VIBRO_PROGRESS_DELAY = 0, below): with the default two seconds a worker's line
+#: was missed under load when the bias run took less.  A transient's second run has
+#: no burn-in: its bar is the sign.
 SIGN = re.compile(r"bias run at 2 dt( \.\.\.|:[^\r\x1b]*sampling)")
 TRANSIENT_SIGN = re.compile("bias run at 2 dt")
+
+
+@pytest.fixture(autouse=True)
+def progress_at_once(monkeypatch):
+    """Progress shown as each stage starts, in the run and in the Dask worker alike
+    (their environment is this one)."""
+    monkeypatch.setenv("FPK_VIBRO_PROGRESS_DELAY", "0")
 
 
 def _signal_at_the_sign(args, sig, sign_in=None, sign=SIGN):
@@ -213,7 +223,7 @@ def test_resume_recomputes_a_damaged_point_record(tmp_path, damage):
     import contextlib
     import io
 
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
 
     path, out = tmp_path / "s.toml", tmp_path / "out"
     path.write_text(textwrap.dedent(AVG))

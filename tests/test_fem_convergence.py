@@ -7,7 +7,7 @@ from skfem import Functional, asm
 
 from fpk_vibro import VibroImpactSystem
 from fpk_vibro.fem import stationary
-from fpk_vibro.fem.benchmark import exact_errors
+from fpk_vibro.benchmarks.fem_scale import exact_errors
 
 SYSTEM = VibroImpactSystem.paper(r=1.0, D2=0.0)
 BETA = SYSTEM.c / SYSTEM.D1

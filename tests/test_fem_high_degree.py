@@ -15,7 +15,7 @@ k − 0.3 = 3.7, its asymptotic order, and below Q3 at every nx.
 (2) The double well of PathIntegrationMethod.jl (a = −1, b = 0.25, c = 1, D1 = 0.5,
 no walls): the L1 error on [−4, 4]² against exp(−2H) normalised there.  Q4 at
 nx = 24 (× 16, 6305 DOFs): 2.76e-5 ≤ the peer's 3.6e-5 (its time is measured by
-``python -m fpk_vibro.fem.benchmark_doublewell``, not asserted here).
+``fpk-vibro bench fem-doublewell``, not asserted here).
 """
 import numpy as np
 import pytest
@@ -23,7 +23,7 @@ import pytest
 from fpk_vibro import VibroImpactSystem
 from fpk_vibro._checks import InputError
 from fpk_vibro.fem import DEFAULT_NX, Options, stationary, transient
-from fpk_vibro.fem.benchmark_doublewell import DOUBLE_WELL, TARGET_L1, double_well_l1
+from fpk_vibro.benchmarks.fem_doublewell import DOUBLE_WELL, TARGET_L1, double_well_l1
 from fpk_vibro.fem.highorder import ElementLineGLL, l1_error, lobatto_nodes
 
 SYSTEM = VibroImpactSystem.paper(r=1.0, D2=0.0)

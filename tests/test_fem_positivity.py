@@ -4,8 +4,8 @@ D1 = 0.002, D2 = 0 go negative next to (±Δ, 0) with plain Galerkin.
 upwind transport, lumped conservative walls) with QUICK transport face values whose
 flux factors are clipped to [0, 4]: every returned density is the null vector of a generator
 (off-diagonals ≥ 0, zero column sums), hence ≥ 0 with mass 1.  The algebraic
-discrete upwinding (``"upwind"``) and the Kuzmin AFC (``"afc"``) are kept for
-general meshes and for comparison."""
+discrete upwinding (``"upwind"``) is kept for general meshes; the Kuzmin AFC
+(``"afc"``) is retired (it does not converge)."""
 import numpy as np
 import pytest
 
@@ -200,7 +200,20 @@ def test_upwind_moments_converge():
     assert abs(EH[2] - EH[1]) < 0.6 * abs(EH[1] - EH[0]), EH
 
 
-def test_afc_warns_when_not_converged():
-    with pytest.warns(RuntimeWarning, match="AFC"):
+def test_afc_is_retired_and_still_runs():
+    """"afc" is retired (its defect correction never converges: docs/measurements.md,
+    §Which option when): accepted for one release, with a DeprecationWarning that names
+    the replacement and the caller's line, and its own RuntimeWarning."""
+    with pytest.warns(RuntimeWarning, match="AFC"), \
+            pytest.warns(DeprecationWarning, match="positivity = 'afc' is retired .*use "
+                                                   "\"auto\"") as seen:
         sol = stationary(HARD[2], nx=16, positivity="afc")
     assert abs(sol.mass - 1) < 1e-12 and np.all(np.isfinite(sol.dofs))
+    assert {w.filename for w in seen if w.category is DeprecationWarning} == {__file__}
+
+
+def test_a_kept_positivity_does_not_warn():
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        stationary(HARD[2], nx=8, positivity="upwind")

@@ -182,7 +182,7 @@ def test_positive_transient_long_time_limit(paper92, positive_coarse):
     (dict(positivity=True, scheme="theta", theta=0.5), "euler"),
     (dict(positivity=True, tol=1e-4), "tol"),
     (dict(positivity=True, degree=2), "degree = 1"),
-    (dict(positivity="afc"), "positivity"),
+    (dict(positivity="upwind"), "positivity"),
     (dict(positivity="sometimes"), "positivity"),
 ])
 def test_positive_transient_bad_input(paper92, kw, match):

@@ -3,12 +3,12 @@ the positivity-preserving exponential integrator (fpk_vibro.fem.transient.expone
 
 The default (Q2, nx = 48, 20 661 DOFs, adaptive BDF2 on a ladder of factorised step
 matrices) runs the whole packet here; its seconds are the benchmark
-``python -m fpk_vibro.fem.benchmark_transient``, not a test."""
+``fpk-vibro bench fem-transient``, not a test."""
 import numpy as np
 import pytest
 
 from fpk_vibro import VibroImpactSystem
-from fpk_vibro.fem.benchmark_transient import PACKET, TIMES, relative_errors
+from fpk_vibro.benchmarks.fem_transient import PACKET, TIMES, relative_errors
 from fpk_vibro.fem.exponential import exponential
 from fpk_vibro.fem.transient import discretise, transient
 

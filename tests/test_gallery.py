@@ -37,7 +37,7 @@ def test_every_gallery_script_is_checked():
 
 
 def test_three_methods():
-    """Averaging's E[H] is 3.1 % above FE at r = 0.92 (README: +3.14 %); Monte
+    """Averaging's E[H] is 3.1 % above FE at r = 0.92 (docs/guide/studies.md: +3.14 %); Monte
     Carlo agrees with FE within its standard error."""
     ns = run("plot_01_three_methods.py")
     assert 0.025 < ns["averaging_excess"] < 0.037
@@ -63,7 +63,7 @@ def test_impacts():
 
 def test_first_passage():
     """Averaging's mean first-passage time to H_c = 0.5 is 2 % shorter than FE's
-    (README: −1.99 % at r = 0.92)."""
+    (docs/guide/studies.md: −1.99 % at r = 0.92)."""
     ns = run("plot_04_first_passage.py")
     assert -0.030 < ns["tau_difference"] < -0.010
     assert 70 < ns["fp_fe"].mean_time() < 90

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from fpk_vibro import VibroImpactSystem, averaging, exact, fem, montecarlo
-from fpk_vibro import cli
-from fpk_vibro.scenes import SceneError, check_scene, parse_scene
+from fpk_vibro.app import cli
+from fpk_vibro.app.scenes import SceneError, check_scene, parse_scene
 from conftest import paper_tables
 
 PAPER = VibroImpactSystem.paper(r=0.92)

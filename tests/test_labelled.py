@@ -9,7 +9,8 @@ import pytest
 xr = pytest.importorskip("xarray")
 pytest.importorskip("h5netcdf")
 
-from fpk_vibro import VibroImpactSystem, Wall, averaging, cli, exact, fem, montecarlo  # noqa: E402
+from fpk_vibro import VibroImpactSystem, Wall, averaging, exact, fem, montecarlo  # noqa: E402
+from fpk_vibro.app import cli  # noqa: E402
 from fpk_vibro.labelled import moments_frame, run_dataset  # noqa: E402
 from conftest import paper_tables
 
@@ -100,7 +101,7 @@ def test_nc_without_xarray_is_one_line(monkeypatch, tmp_path):
             raise ImportError(name)
         return real(name, *a, **k)
     monkeypatch.setattr(builtins, "__import__", no_xarray)
-    from fpk_vibro.scenes import SceneError, parse_scene
+    from fpk_vibro.app.scenes import SceneError, parse_scene
     import tomllib
     with pytest.raises(SceneError, match="fpk_vibro\\[data\\]"):
         parse_scene(tomllib.loads(SCENE.format(extra="", mc="")))

@@ -93,7 +93,7 @@ def test_vectorised_sweep_equals_scalar_scheme(name):
 
 
 def test_benchmark_rates_report_every_figure():
-    from fpk_vibro.montecarlo.benchmark import rates
+    from fpk_vibro.benchmarks.montecarlo import rates
 
     r = rates(n_paths=128, n_batches=4, path_steps=2e5, repeats=2, threads=[1, 2])
     assert set(r) == {1, 2}

@@ -5,7 +5,8 @@ import sys
 
 import numpy as np
 
-from fpk_vibro import VibroImpactSystem, averaging, fem, plotting
+from fpk_vibro import VibroImpactSystem, averaging, fem
+from fpk_vibro.app import plotting
 
 
 def test_import_and_plot_leave_the_backend_alone():
@@ -36,7 +37,7 @@ def test_plot_density_draws_into_the_given_ax():
 
 
 def test_two_parameter_sweep_is_faceted(tmp_path):
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
     scene = tmp_path / "s.toml"
     scene.write_text("[system]\na = 1.0\nb = 0.2\nc = 0.025\nD1 = 0.01\n[barriers]\n"
                      "delta = 0.6\nr = 0.9\n[study]\nmethods = [\"averaging\"]\n"

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fpk_vibro import cli
+from fpk_vibro.app import cli
 from test_faults import SWEEP
 from conftest import paper_tables
 
@@ -142,8 +142,8 @@ def test_resume_trusts_a_record_by_its_file_name(tmp_path):
 
 def test_resume_recomputes_other_settings_of_the_same_scene(tmp_path):
     """--reduced and the full size differ in their options: not reused for each other."""
-    from fpk_vibro.runner import run_scene
-    from fpk_vibro.scenes import load_scene
+    from fpk_vibro.app.runner import run_scene
+    from fpk_vibro.app.scenes import load_scene
     path, out = write(tmp_path, MC, "mc.toml", t_sample=300.0, r=(0.5,)), tmp_path / "o"
     scene = load_scene(path)
     run_scene(scene.reduced(), out=out, log=lambda s: None)
@@ -172,7 +172,7 @@ def test_resume_recomputes_a_point_whose_densities_file_is_missing(tmp_path):
 
 
 def test_resume_retries_failed_points(tmp_path, monkeypatch):
-    from fpk_vibro import runner
+    from fpk_vibro.app import runner
     solve = runner._solve
 
     def failing(method, system, scene, progress=False):
@@ -335,7 +335,7 @@ def test_a_new_run_owns_the_directory(tmp_path):
 
 
 def test_a_run_whose_points_all_fail_leaves_no_earlier_densities(tmp_path, monkeypatch):
-    from fpk_vibro import runner
+    from fpk_vibro.app import runner
     out = tmp_path / "o"
     path = avg(tmp_path, formats='["json", "npz", "png"]')
     assert run(path, "--out", out, "--quiet")[0] == 0

@@ -41,7 +41,7 @@ def test_an_averaging_only_scene_gets_its_indicator_estimate_without_any_fe(tmp_
     path.write_text(SCENE.format(methods='["averaging"]', extra=""))
     code = textwrap.dedent(f"""
         import sys
-        from fpk_vibro import cli
+        from fpk_vibro.app import cli
         assert cli.main(["run", {str(path)!r}, "--out", {str(tmp_path / 'o')!r}]) == 0
         print(sorted(m for m in sys.modules if m.startswith(("fpk_vibro.fem", "skfem"))))
     """)

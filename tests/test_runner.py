@@ -7,8 +7,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from fpk_vibro.runner import run_scene
-from fpk_vibro.scenes import load_scene
+from fpk_vibro.app.runner import run_scene
+from fpk_vibro.app.scenes import load_scene
 from conftest import paper_tables
 
 AVG_ONLY = paper_tables(D2=0.0) + """
@@ -29,7 +29,7 @@ def test_averaging_energy_scene_runs_no_fem_or_monte_carlo(tmp_path):
     scene = write(tmp_path, AVG_ONLY)
     code = textwrap.dedent(f"""
         import sys
-        from fpk_vibro import cli
+        from fpk_vibro.app import cli
         assert cli.main(["run", {str(scene)!r}, "--out", {str(tmp_path / 'out')!r}, "--quiet"]) == 0
         print(sorted(m for m in sys.modules if m.startswith(("fpk_vibro.fem", "fpk_vibro.montecarlo",
                                                               "skfem", "numba", "pyamg"))))
@@ -66,7 +66,7 @@ def test_moments_and_densities_saved(tmp_path):
 
 def test_a_point_where_averaging_does_not_apply_is_refused_before_any_work(tmp_path):
     """Linear oscillator without barrier: D2 = 0.2 gives a power-law tail."""
-    from fpk_vibro.scenes import SceneError
+    from fpk_vibro.app.scenes import SceneError
     text = AVG_ONLY.replace("b = 0.2", "b = 0.0").replace("delta = 0.6\nr = 0.92", 'sides = "none"')
     text += "\n[sweep]\nD2 = [0.0, 0.2]\n"
     with pytest.raises(SceneError, match=r"study.methods: averaging: .*does not converge.*D2 = 0.2"):
@@ -77,7 +77,7 @@ def test_a_point_where_averaging_does_not_apply_is_refused_before_any_work(tmp_p
 
 def test_sweep_in_parallel_and_a_failed_point_is_reported(tmp_path, monkeypatch):
     """A point that fails during its run is reported; the others are kept."""
-    from fpk_vibro import runner
+    from fpk_vibro.app import runner
     solve = runner._solve
 
     def failing(method, system, scene, progress=False):
@@ -105,7 +105,7 @@ def test_sweep_in_worker_processes(tmp_path):
 
 
 def test_cli_check_and_show(tmp_path, capsys):
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
     scene = write(tmp_path, AVG_ONLY)
     assert cli.main(["check", str(scene)]) == 0
     assert "valid" in capsys.readouterr().out
@@ -137,8 +137,8 @@ def test_sweep_on_a_dask_cluster(tmp_path):
 
 def test_positive_fem_transient_scene(tmp_path):
     """fem.positivity reaches the FE transient (it used to be dropped there)."""
-    from fpk_vibro.runner import _solve
-    from fpk_vibro.scenes import parse_scene
+    from fpk_vibro.app.runner import _solve
+    from fpk_vibro.app.scenes import parse_scene
 
     scene = parse_scene({
         "system": dict(a=1.0, b=0.2, c=0.025, D1=0.01, D2=0.01),
@@ -154,7 +154,7 @@ def test_positive_fem_transient_scene(tmp_path):
 
 
 def test_quiet_still_reports_a_failed_point(tmp_path, monkeypatch, capsys):
-    from fpk_vibro import cli, runner
+    from fpk_vibro.app import cli, runner
     solve = runner._solve
 
     def failing(method, system, scene, progress=False):
@@ -171,7 +171,7 @@ def test_quiet_still_reports_a_failed_point(tmp_path, monkeypatch, capsys):
 
 
 def test_scheduler_without_dask_is_one_line(tmp_path, monkeypatch, capsys):
-    from fpk_vibro import cli
+    from fpk_vibro.app import cli
     monkeypatch.setitem(sys.modules, "dask.distributed", None)
     scene = write(tmp_path, AVG_ONLY)
     assert cli.main(["run", str(scene), "--out", str(tmp_path / "o"),

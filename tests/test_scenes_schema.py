@@ -3,7 +3,7 @@ import textwrap
 
 import pytest
 
-from fpk_vibro.scenes import SceneError, check_scene, load_scene, parse_scene, schema_table
+from fpk_vibro.app.scenes import SceneError, check_scene, load_scene, parse_scene, schema_table
 from conftest import paper_tables
 
 GOOD = paper_tables() + """

@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fpk_vibro import VibroImpactSystem, Wall, averaging, cli, exact, fem, montecarlo
+from fpk_vibro import VibroImpactSystem, Wall, averaging, exact, fem, montecarlo
+from fpk_vibro.app import cli
 from fpk_vibro._checks import InputError
-from fpk_vibro.scenes import SceneError, check_scene, parse_scene
+from fpk_vibro.app.scenes import SceneError, check_scene, parse_scene
 from fpk_vibro.solution import Solution
 from conftest import paper_tables
 

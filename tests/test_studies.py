@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from fpk_vibro import cli
+from fpk_vibro.app import cli
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 
@@ -71,8 +71,8 @@ def test_transient_convergence_study_on_the_packet():
     Monte Carlo lies within its standard error of the truth, averaging is a model error."""
     from dataclasses import replace
 
-    from fpk_vibro import studies
-    from fpk_vibro.scenes import load_scene
+    from fpk_vibro.app import studies
+    from fpk_vibro.app.scenes import load_scene
     scene = replace(load_scene(EXAMPLES / "transient_packet.toml"), times=(1.0, 5.0))
     doc = studies.convergence_study(scene, quick=True, log=lambda *_: None)
     rows, est = doc["rows"], doc["truth"]["error_estimate"]

@@ -13,7 +13,7 @@ import pytest
 from fpk_vibro import VibroImpactSystem, Wall, averaging, budget, fem, montecarlo, scales
 from fpk_vibro._checks import InputError
 from fpk_vibro.exact import GibbsSolution
-from fpk_vibro.scenes import SceneError, parse_scene
+from fpk_vibro.app.scenes import SceneError, parse_scene
 
 PAPER = VibroImpactSystem.paper(r=0.92)
 #: c = 0: all the loss at one inelastic wall, the other elastic.

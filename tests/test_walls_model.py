@@ -5,7 +5,7 @@ import pytest
 
 from fpk_vibro import VibroImpactSystem, Wall, exact
 from fpk_vibro._checks import InputError
-from fpk_vibro.scenes import parse_scene
+from fpk_vibro.app.scenes import parse_scene
 
 BASE = dict(a=1.0, b=0.2, c=0.025, D1=0.01)
 

@@ -4,7 +4,7 @@ The joint density p(x, y) at r = 0.98 and 0.92 (the paper's Figs. 4 and 5)
 
 Finite elements (Q2) and stochastic averaging give the joint density of
 displacement and velocity between walls at ±0.6.  With one colour scale from 0
-(:func:`fpk_vibro.plotting.plot_joint`) the lower restitution visibly concentrates
+(:func:`fpk_vibro.app.plotting.plot_joint`) the lower restitution visibly concentrates
 the density at low energy; the difference maps show where averaging, which makes
 p(x, y) a function of the energy alone, departs from FE: along the walls, where the
 impacts take energy out.
@@ -12,7 +12,8 @@ impacts take energy out.
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fpk_vibro import VibroImpactSystem, averaging, fem, plotting
+from fpk_vibro import VibroImpactSystem, averaging, fem
+from fpk_vibro.app import plotting
 
 x = np.linspace(-0.6, 0.6, 121)
 y = np.linspace(-1.2, 1.2, 121)

@@ -11,7 +11,7 @@ solutions and their files) and nothing in the core imports from here:
   on worker processes or on Dask, and :mod:`~fpk_vibro.app.estimates`, every answer's
   error estimate in it;
 - :mod:`fpk_vibro.app.studies`, :mod:`~fpk_vibro.app.study_plots`,
-  :mod:`~fpk_vibro.app.plotting`, :mod:`~fpk_vibro.app.benchmarks` — studies,
-  figures and timings;
-- :mod:`fpk_vibro.app.cli` — the ``fpk-vibro`` command.
+  :mod:`~fpk_vibro.app.plotting` — studies and figures;
+- :mod:`fpk_vibro.app.cli` — the ``fpk-vibro`` command (``fpk-vibro bench`` runs the
+  timings of :mod:`fpk_vibro.benchmarks`).
 """

@@ -9,9 +9,7 @@ methods     what each registered method handles (Markdown; docs/guide/methods.md
 show DIR    print the summary table of a results directory
 study KIND  ``convergence`` (error vs wall time) or ``averaging`` (where it holds)
 paper       the paper's case end to end (Fig. 3 analogue): p(H) for r = 0.98, 0.92
-bench NAME  benchmarks: ``averaging``, ``montecarlo``, ``fem`` (what accuracy costs:
-            rtol against error, estimate and seconds), ``fem-scale`` (DOFs,
-            solvers, 10⁶ DOFs), ``fem-transient``
+bench NAME  a benchmark of :mod:`fpk_vibro.benchmarks` (``--quick``: a few seconds)
 """
 from __future__ import annotations
 
@@ -22,36 +20,6 @@ import time
 from pathlib import Path
 
 from .._version import __version__
-
-def _bench_averaging():
-    from . import benchmarks
-    return benchmarks.main
-
-
-def _bench_montecarlo():
-    from ..montecarlo import benchmark
-    return benchmark.main
-
-
-def _bench_fem():
-    from ..fem import benchmark_rtol
-    return benchmark_rtol.main
-
-
-def _bench_fem_scale():
-    from ..fem import benchmark
-    return benchmark.main
-
-
-def _bench_fem_transient():
-    from ..fem import benchmark_transient
-    return benchmark_transient.main
-
-
-#: The benchmarks by name: each loads its main(argv) only when asked for.
-_BENCHMARKS = {"averaging": _bench_averaging, "montecarlo": _bench_montecarlo,
-               "fem": _bench_fem, "fem-scale": _bench_fem_scale,
-               "fem-transient": _bench_fem_transient}
 
 
 def _print_moments(label: str, moments: dict[str, float], se: dict[str, float] | None = None) -> None:
@@ -109,9 +77,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         _print_summary(doc)
         print(f"  wrote {out}/results.json")
     if doc["status"] == "interrupted":
-        print(f"fpk-vibro: interrupted ({doc['signal']}): the run is partial: "
-              f"{_kept(doc['points'])}, in {out}/results.json; continue with --resume",
-              file=sys.stderr)
+        _say(f"interrupted ({doc['signal']}): the run is partial: {_kept(doc['points'])}, "
+             f"in {out}/results.json; continue with --resume")
         return 128 + int(getattr(signal, doc["signal"]))
     return 1 if any(p.get("status") == "failed" for p in doc["points"]) else 0
 
@@ -235,7 +202,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_keys(args: argparse.Namespace) -> int:
-    """The table of scene keys (generated from the declarations; the README's)."""
+    """The table of scene keys (generated from the declarations; docs/guide/keys.md's)."""
     from .scenes import schema_table
     print(schema_table())
     return 0
@@ -249,14 +216,30 @@ def cmd_methods(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    return int(_BENCHMARKS[args.name]()(args.rest) or 0)
+    from .. import benchmarks
+    return int(benchmarks.load(args.name)(args.rest) or 0)
+
+
+def _line(text: str) -> str:
+    """``text`` as one line of the terminal: its whitespace runs made one space, and a
+    newline at the end (the next output starts on a line of its own)."""
+    return " ".join(str(text).split()) + "\n"
+
+
+def _say(text: str) -> None:
+    """Print ``fpk-vibro: text`` as one line on stderr (an error, an interruption),
+    after what stdout holds, so that the two come out in order."""
+    sys.stdout.flush()
+    sys.stderr.write(_line(f"fpk-vibro: {text}"))
+    sys.stderr.flush()
 
 
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (exit status 2), no usage dump."""
 
     def error(self, message: str):  # noqa: D102
-        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+        sys.stdout.flush()
+        self.exit(2, _line(f"{self.prog}: error: {message}"))
 
 
 def _positive_int(flag: str):
@@ -315,9 +298,15 @@ def build_parser() -> argparse.ArgumentParser:
     pp = sub.add_parser("paper", help="the paper's case end to end (Fig. 3 analogue)")
     pp.add_argument("--out", default="results", help="output directory (default: results)")
     pp.set_defaults(func=cmd_paper)
-    pb = sub.add_parser("bench", help="benchmarks")
-    pb.add_argument("name", choices=sorted(_BENCHMARKS))
-    pb.add_argument("rest", nargs=argparse.REMAINDER, help="options passed to the benchmark")
+    from ..benchmarks import BENCHMARKS
+    listed = "\n".join(f"  {name:<18s} {b.summary}" for name, b in BENCHMARKS.items())
+    pb = sub.add_parser("bench", help="benchmarks", epilog="benchmarks:\n" + listed,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    pb.add_argument("name", choices=list(BENCHMARKS), metavar="NAME",
+                    help="the benchmark (listed below)")
+    pb.add_argument("rest", nargs=argparse.REMAINDER, metavar="OPTIONS",
+                    help="options passed to the benchmark: --quick (a few seconds, a smoke "
+                         "test), --help (its own)")
     pb.set_defaults(func=cmd_bench)
     return p
 
@@ -331,12 +320,12 @@ def main(argv: list[str] | None = None) -> int:
                 return int(args.func(args) or 0)
         return int(args.func(args) or 0)
     except KeyboardInterrupt as exc:
-        print("fpk-vibro: interrupted", file=sys.stderr)
+        _say("interrupted")
         return 128 + int(getattr(exc, "signum", signal.SIGINT))
     except OSError as exc:
         where = f" {exc.filename!r}:" if getattr(exc, "filename", None) else ""
-        print(f"fpk-vibro: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        _say(f"error:{where} {exc.strerror or exc}")
         return 2
     except ValueError as exc:
-        print(f"fpk-vibro: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        _say(f"error: {exc}")
         return 2

@@ -1,4 +1,4 @@
-"""The keys a scene may hold, each declared once, and the README's table of them.
+"""The keys a scene may hold, each declared once, and the table of them.
 
 ``[system]`` and ``[barriers]`` come from :data:`fpk_vibro.model.FIELDS` (the walls'
 sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[averaging]``, ``[fem]``,
@@ -178,13 +178,13 @@ def table_keys(table: str) -> dict[str, Option]:
 
 
 def __getattr__(name: str) -> Any:
-    if name == "SCHEMA":     # every table: imports every method (README, tests)
+    if name == "SCHEMA":     # every table: imports every method (the key table, tests)
         return {t: table_keys(t) for t in tables()}
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def schema_table() -> str:
-    """The scene keys as a Markdown table (key, default, allowed, meaning) for the README.
+    """The scene keys as a Markdown table (key, default, allowed, meaning): docs/guide/keys.md.
 
     Defaults are written as a scene writes them (TOML): ``true``, ``"auto"``,
     ``[0.0, 0.0]``; a default that differs between stationary and transient runs

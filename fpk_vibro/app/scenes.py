@@ -5,8 +5,8 @@ compute and at which times (absent: stationary), the numerics of each method, an
 optional sweep over one or two parameters, and the output.  Every key comes from
 one declaration: ``[system]`` and ``[barriers]`` from :data:`fpk_vibro.model.FIELDS`,
 ``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the
-rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the README's
-table is generated from it).
+rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the table of
+docs/guide/keys.md is generated from it).
 
 :func:`parse_scene` checks every key; :func:`check_scene` then runs, per point and
 method, every check the solver itself runs (:mod:`fpk_vibro.app.plan`) and estimates the
@@ -45,7 +45,7 @@ MAX_SCENE_BYTES = 1 << 20
 
 
 def __getattr__(name: str) -> Any:
-    if name == "SCHEMA":     # every table: imports every method (README, tests)
+    if name == "SCHEMA":     # every table: imports every method (the key table, tests)
         return {t: table_keys(t) for t in tables()}
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

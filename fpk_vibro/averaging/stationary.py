@@ -62,10 +62,10 @@ class AveragedSolution(Solution):
         self._mean_x: float | None = None
         self._estimate: dict[str, Any] | None = None
         self._indicator_estimate: dict[str, Any] | None = None
-        #: What the solve did and, once asked for, the model error
-        #: (``info["error_estimate"]``, the largest relative figure).
-        self.info: dict[str, Any] = {"n_theta": n_theta, "n_panel": n_panel,
-                                     "phi_cut": phi_cut}
+        #: What the solve did (``panels``: Φ's panels in all regimes) and, once asked
+        #: for, the model error (``info["error_estimate"]``, the largest relative figure).
+        self.info: dict[str, Any] = {"n_theta": n_theta, "n_panel": n_panel, "phi_cut": phi_cut,
+                                     "panels": sum(r.coef.shape[1] for r in regimes)}
 
     # -- how far off it is ----------------------------------------------------------
     def error_estimate(self, reference: Any = None, *, by: str = "fem") -> dict[str, Any]:

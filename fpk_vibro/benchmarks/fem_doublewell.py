@@ -1,6 +1,6 @@
 """The smooth double well of a peer's exact test, for every FE degree (issue 23, §4).
 
-Run ``python -m fpk_vibro.fem.benchmark_doublewell`` (``--help`` for options).
+Run ``fpk-vibro bench fem-doublewell`` (``--help`` for options).
 
 dx = v dt, dv = (−v + x − 0.25 x³) dt + dW: a = −1, b = 0.25, c = 1, D1 = 0.5,
 D2 = 0, no walls (``barriers="none"``), the test of the path-integration package
@@ -24,8 +24,8 @@ import warnings
 import numpy as np
 
 from ..model import VibroImpactSystem
-from . import stationary
-from .highorder import l1_error
+from ..fem import stationary
+from ..fem.highorder import l1_error
 
 __all__ = ["DOUBLE_WELL", "BOX", "TARGET_L1", "double_well_l1", "run", "main"]
 
@@ -71,13 +71,19 @@ def run(degree: int, nx: int, y_max: float | None = None, repeat: int = 5
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m fpk_vibro.fem.benchmark_doublewell",
+    ap = argparse.ArgumentParser(prog="fpk-vibro bench fem-doublewell",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", action="append", default=None, metavar="DEG:NX[:YMAX]",
                     help="a configuration (repeatable); default: a table of degrees 2-4")
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per configuration")
+    ap.add_argument("--quick", action="store_true",
+                    help="Q2 nx = 16 and Q4 nx = 8, one timed run: a few seconds (a smoke test)")
     args = ap.parse_args(argv)
+    if args.repeat < 1:
+        ap.error(f"--repeat must be >= 1; got {args.repeat}")
     configs = CONFIGS
+    if args.quick:
+        configs, args.repeat = [(2, 16, None), (4, 8, None)], 1
     if args.config:
         configs = []
         for c in args.config:

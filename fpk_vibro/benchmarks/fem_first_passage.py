@@ -1,6 +1,6 @@
 """Accuracy and speed of ``fem.first_passage`` by default (issue 23).
 
-Run ``python -m fpk_vibro.fem.benchmark_first_passage`` (``--nx``, ``--repeat``).
+Run ``fpk-vibro bench fem-first-passage`` (``--nx``, ``--repeat``, ``--quick``).
 
 For five systems it prints the default τ (start and H_c below), the converged
 reference (isoparametric Q2 at nx = 64, 128 and 256 for the paper case, the last
@@ -16,7 +16,7 @@ import sys
 import time
 
 from ..model import VibroImpactSystem
-from .first_passage import first_passage
+from ..fem.first_passage import first_passage
 
 __all__ = ["CASES", "run", "main"]
 
@@ -59,12 +59,18 @@ def run(nx: int | None = None, repeat: int = 3, out=sys.stdout) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m fpk_vibro.fem.benchmark_first_passage",
+    ap = argparse.ArgumentParser(prog="fpk-vibro bench fem-first-passage",
                                  description=__doc__.splitlines()[0])
     ap.add_argument("--nx", type=int, default=None, help="cells across x (default: "
                     "fem.first_passage's)")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=3, help="timed runs per system (default 3)")
+    ap.add_argument("--quick", action="store_true",
+                    help="nx = 16, one timed run: a few seconds (a smoke test)")
     args = ap.parse_args(argv)
+    if args.repeat < 1:
+        ap.error(f"--repeat must be >= 1; got {args.repeat}")
+    if args.quick:
+        args.nx, args.repeat = 16, 1
     run(args.nx, args.repeat)
     return 0
 

@@ -23,8 +23,8 @@ import numpy as np
 
 from .._checks import InputError
 from ..model import VibroImpactSystem
-from . import stationary
-from .estimate import JUDGED, difference
+from ..fem import stationary
+from ..fem.estimate import JUDGED, difference
 
 __all__ = ["CASES", "main"]
 
@@ -44,7 +44,7 @@ def _reference(system: VibroImpactSystem, nx: int):
 
 
 def _exact_l1(sol, ref) -> float:
-    from .highorder import l1_error
+    from ..fem.highorder import l1_error
     return l1_error(sol, ref.pdf_joint)
 
 
@@ -56,7 +56,11 @@ def main(argv: list[str] | None = None) -> int:
                    help="cells across x of the Q4 references (default 96)")
     p.add_argument("--case", choices=list(CASES), action="append",
                    help="only this case (repeatable)")
+    p.add_argument("--quick", action="store_true",
+                   help="rtol 1e-2 only, references at nx = 16: a few seconds (a smoke test)")
     args = p.parse_args(argv)
+    if args.quick:
+        args.rtol, args.ref_nx = [1e-2], 16
     if any(not 0 < r < 1 for r in args.rtol):
         p.error(f"--rtol must lie in (0, 1); got {args.rtol}")
     if args.ref_nx < 8:

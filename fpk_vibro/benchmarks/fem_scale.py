@@ -1,6 +1,6 @@
 """Benchmark of the FEM solver on the exact case (docs/theory.md, §Exact solution).
 
-Run ``python -m fpk_vibro.fem.benchmark`` (``--help`` for options).  For each
+Run ``fpk-vibro bench fem-scale`` (``--help`` for options).  For each
 degree, level and solver it prints DOFs, assembly and solve seconds, the L1 and
 max errors against the exact Gibbs density p ∝ exp(−(c/D1) H) (r = 1, D2 = 0,
 paper a, b, c, D1, Δ), and the ratio of the straightforward baseline (general
@@ -34,7 +34,7 @@ import numpy as np
 from skfem import Functional, asm
 
 from ..model import VibroImpactSystem
-from . import stationary
+from ..fem import stationary
 
 __all__ = ["EXACT_SYSTEM", "exact_errors", "main"]
 
@@ -86,9 +86,9 @@ def baseline(n: int, degree: int) -> tuple[float, np.ndarray]:
     import scipy.sparse.linalg as spla
     import skfem
 
-    from .generator import assemble, element_for, quadrature_order
-    from .mesh import domain, structured_mesh
-    from .solve import pinned_system
+    from ..fem.generator import assemble, element_for, quadrature_order
+    from ..fem.mesh import domain, structured_mesh
+    from ..fem.solve import pinned_system
 
     t0 = time.perf_counter()
     m, _, _ = structured_mesh(domain(EXACT_SYSTEM), n, 4 * n)
@@ -108,8 +108,8 @@ def _amg_worker(nx: int, kind: str, method: str) -> None:
     import scipy.sparse as sp
 
     from .. import budget, scales
-    from .solve import SolverNotConverged, factorised, solve_stationary
-    from .transient import discretise
+    from ..fem.solve import SolverNotConverged, factorised, solve_stationary
+    from ..fem.transient import discretise
 
     warnings.simplefilter("ignore", RuntimeWarning)
     with budget.unlimited():
@@ -158,7 +158,7 @@ def amg_table(sizes, kinds=("step", "stationary"), *, mem_gb: float = 15.0,
         for N in sizes:
             nx = max(4, round((np.sqrt(1 + 16 * (N - 1)) - 5) / 8))  # (nx+1)(4nx+1) ≈ N
             for method in ("superlu", "amg"):
-                cmd = [sys.executable, "-m", "fpk_vibro.fem.benchmark", "--amg-worker",
+                cmd = [sys.executable, "-m", "fpk_vibro.benchmarks.fem_scale", "--amg-worker",
                        str(nx), kind, method]
                 lim = int(mem_gb * 2**30)
 
@@ -190,7 +190,7 @@ def amg_table(sizes, kinds=("step", "stationary"), *, mem_gb: float = 15.0,
 
 def main(argv: list[str] | None = None) -> int:
     """Print the benchmark table; returns 0."""
-    ap = argparse.ArgumentParser(prog="python -m fpk_vibro.fem.benchmark",
+    ap = argparse.ArgumentParser(prog="fpk-vibro bench fem-scale",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--q1", type=int, nargs="*", default=[32, 64, 128, 256, 500],
                     help="Q1 levels: cells across x (ny = 4 nx); default %(default)s")
@@ -200,7 +200,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the baseline up to this many DOFs (default %(default)s)")
     ap.add_argument("--amg", action="store_true",
                     help="also try pyamg AIR / smoothed aggregation on the smallest level")
-    ap.add_argument("--quick", action="store_true", help="small levels only")
+    ap.add_argument("--quick", action="store_true",
+                    help="small levels only: a few seconds (a smoke test)")
     ap.add_argument("--amg-sizes", type=float, nargs="+", metavar="N",
                     help="instead: AMG vs SuperLU at about these DOF counts, e.g. "
                          "1e4 6.6e4 2.6e5 1e6 4e6 (module docstring)")

@@ -1,6 +1,6 @@
 """Benchmark of the FE transient on the paper packet (not a unit test).
 
-``python -m fpk_vibro.fem.benchmark_transient [--quick] [--variants ...]`` prints,
+``fpk-vibro bench fem-transient [--quick] [--variants ...]`` prints,
 for ``x = 0, y ~ N(1, 0.05²)`` on ``VibroImpactSystem.paper(r=0.92)``, the seconds of
 each variant and the relative errors of E[H], E[x²], E[y²] at t = 1, 5, 20, 80
 against :data:`REFERENCE`.
@@ -41,8 +41,8 @@ def relative_errors(sols, times=TIMES) -> np.ndarray:
 
 
 def _variants(quick: bool) -> dict[str, Callable]:
-    from .exponential import exponential
-    from .transient import transient
+    from ..fem.exponential import exponential
+    from ..fem.transient import transient
     system = VibroImpactSystem.paper(r=0.92)
     nx = 24 if quick else None
 
@@ -66,7 +66,7 @@ def _variants(quick: bool) -> dict[str, Callable]:
 def main(argv: list[str] | None = None) -> int:
     """Run the variants and print seconds and relative errors (see module docstring)."""
     variants = _variants(False)
-    parser = argparse.ArgumentParser(prog="python -m fpk_vibro.fem.benchmark_transient",
+    parser = argparse.ArgumentParser(prog="fpk-vibro bench fem-transient",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
                         help="coarse meshes (Q2 nx = 24, Q1 nx = 48): seconds, not accuracy")

@@ -1,4 +1,4 @@
-"""Benchmark of the Monte Carlo engine (issue 3): ``python -m fpk_vibro.montecarlo.benchmark``.
+"""``fpk-vibro bench montecarlo``: the Monte Carlo engine (issue 3).
 
 Prints
 
@@ -31,15 +31,15 @@ import numba
 import numpy as np
 
 from ..model import VibroImpactSystem
-from . import _kernel as K
-from . import _setup as S
-from . import _first_passage as FP
-from ._engine import stationary
-from .solution import QUANTITIES
+from ..montecarlo import _first_passage as FP
+from ..montecarlo import _kernel as K
+from ..montecarlo import _setup as S
+from ..montecarlo import stationary
+from ..montecarlo.solution import QUANTITIES
 
 WALL_SNIPPET = """
 import time; t0 = time.perf_counter()
-from ..model import VibroImpactSystem
+from fpk_vibro import VibroImpactSystem
 from fpk_vibro.montecarlo import stationary
 sol = stationary(VibroImpactSystem.paper(r=0.92), seed=2024, target_rse={rse!r})
 m, se = sol.moments()["E_H"], sol.moments_se()["E_H"]
@@ -222,21 +222,26 @@ def wall_time(rse=1e-3):
 
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; returns 0 (targets are reported, not asserted)."""
-    ap = argparse.ArgumentParser(prog="python -m fpk_vibro.montecarlo.benchmark",
+    ap = argparse.ArgumentParser(prog="fpk-vibro bench montecarlo",
                                  description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="smaller sizes (rough figures)")
+    ap.add_argument("--quick", action="store_true",
+                    help="small sizes, one repeat, relative SE 1e-2: a few seconds (a smoke "
+                         "test, not a measurement)")
     ap.add_argument("--skip-bias", action="store_true")
     ap.add_argument("--skip-wall", action="store_true")
     ap.add_argument("--skip-first-passage", action="store_true")
-    ap.add_argument("--bias-rse", type=float, default=2e-3,
-                    help="target relative SE of each E[H] in the dt table (default 2e-3)")
+    ap.add_argument("--bias-rse", type=float, default=None,
+                    help="target relative SE of each E[H] in the dt table (default 2e-3; "
+                         "1e-2 with --quick)")
     args = ap.parse_args(argv)
+    if args.bias_rse is None:
+        args.bias_rse = 1e-2 if args.quick else 2e-3
     ncpu = numba.config.NUMBA_NUM_THREADS
     print(f"fpk_vibro Monte Carlo benchmark — numba {numba.__version__}, "
           f"{ncpu} thread(s) available, load average {os.getloadavg()[0]:.2f}")
     print("\n1. kernel rate vs the random source's normal rate "
           "(paper r=0.92, default dt, 2048 paths, 32 blocks)")
-    r = rates(path_steps=3e7 if args.quick else 8e7, repeats=3 if args.quick else 9)
+    r = rates(path_steps=4e6 if args.quick else 8e7, repeats=1 if args.quick else 9)
     print(f"   {'threads':>7} {'kernel (sampling)':>18} {'kernel (no sampling)':>21} "
           f"{'normals alone':>14} {'kernel/floor':>12}")
     for nt, m in r.items():
@@ -269,9 +274,10 @@ def main(argv: list[str] | None = None) -> int:
               f"± {se:.2g} (rel {se / m:.2e}), {n} paths × {ts:.0f} time units, dt={dt:.4f}"
               f"   (target <= 10 s)")
     if not args.skip_first_passage:
+        n_paths = 2048 if args.quick else 16384
         print("\n4. first-passage kernel vs the random source's normal rate (paper r=0.92, "
-              "H_c=0.498 from (0, 0), default dt, 16384 paths to exit)")
-        r = fp_rates(repeats=3 if args.quick else 7)
+              f"H_c=0.498 from (0, 0), default dt, {n_paths} paths to exit)")
+        r = fp_rates(n_paths=n_paths, repeats=1 if args.quick else 7)
         print(f"   {'threads':>7} {'path-steps/s':>14} {'normals alone':>14} "
               f"{'kernel/floor':>12}")
         for nt, m in r.items():

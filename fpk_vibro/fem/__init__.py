@@ -15,10 +15,12 @@ coupling), ``impact`` (B± coupling), ``generator`` (assembly of L, M), ``mesh``
 ``strip_mesh``, ``solve`` (with ``direct`` and ``amg``), ``positivity`` (with
 ``positive_grid`` and ``limiter``), ``afc``, ``nonnegative``, ``solution``
 (:class:`FEMSolution`, with ``marginals``, ``solution_files``, ``under_resolved``),
-``estimate`` and ``compare`` (the error estimate and the rtol solve), ``transient``
+``estimate`` and ``compare`` (the error estimate and the rtol solve;
+``ladder``: its levels, limits and predicted cost), ``transient``
 (with ``relaxation``), ``transient_accuracy`` (rtol) and ``transient_estimate`` (the
 estimate without rtol), ``first_passage`` (with ``safe_set`` and
-``passage_parts``), ``options`` (with ``wall_layers``), ``benchmark``.
+``passage_parts``), ``options`` (with ``wall_layers``).  The benchmarks are in
+:mod:`fpk_vibro.benchmarks`.
 
 Measured accuracy and speed on the exact case (orders of Q1/Q2/P1/P2 and of the
 positive scheme, where Q2's error sits and why, timings): docs/measurements.md,

@@ -9,10 +9,13 @@ off-diagonals of the Q1/P1 Galerkin L (a generator).  ``"afc"``: Kuzmin's
 algebraic flux correction of D's antidiffusive fluxes (Zalesak limiter) by
 defect correction with the low-order LU.
 
-AFC status (``"afc"``; unchanged): on the hard cases the defect correction
-oscillates (relative change 0.1–1.5 after 300 iterations with ω = 0.5); frozen-α,
-FCT pseudo-time stepping, ``scipy.optimize.anderson`` and ``newton_krylov`` did
-not converge either.  It is kept only for comparison on general meshes.
+AFC status (``"afc"``; retired, it goes in the next release with what only it
+uses here): on the hard cases the defect correction oscillates (relative change
+0.1–1.5 after 300 iterations with ω = 0.5); frozen-α, FCT pseudo-time stepping,
+``scipy.optimize.anderson`` and ``newton_krylov`` did not converge either, and
+on the paper case and the exact case it stops at 300 iterations too, 12–290 times
+farther from the reference than ``"auto"`` (docs/measurements.md, §Which option
+when).
 """
 from __future__ import annotations
 

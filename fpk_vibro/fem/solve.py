@@ -30,7 +30,7 @@ Solvers
 matrix K = a·M − h·L: SuperLU, or AMG when K is an M-matrix (lumped M, positive
 generator) too large for its LU to fit (see its docstring).
 
-Where AMG fits (``python -m fpk_vibro.fem.benchmark --amg-sizes``; the measurements,
+Where AMG fits (``fpk-vibro bench fem-scale --amg-sizes``; the measurements,
 up to 10⁷ DOFs with peak memory, are in ``docs/fem_solvers.md``).  On the Galerkin L
 (pinned, or M − dt L with the consistent mass) AIR, smoothed aggregation and
 root-node do not converge: the Galerkin transport couplings are negative, not an
@@ -81,7 +81,7 @@ SOLVERS = ("auto", "direct", "amg", "amg-sa")
 
 #: Unknowns from which :func:`factorised` ``"auto"`` may use AMG (only on
 #: M-matrix-pattern matrices): the measured single-solve crossover (module
-#: docstring, ``benchmark --amg-sizes``).
+#: docstring, ``bench fem-scale --amg-sizes``).
 AMG_MIN_DOFS = 1_000_000
 #: The same for the stationary (pinned) system: never (math.inf).  Measured on the
 #: pinned positive generator: AIR + GMRES iterations grow 14, 20, 46, > 100 at 1e4,

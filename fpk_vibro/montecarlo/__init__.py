@@ -99,9 +99,10 @@ spread between blocks (independent batches).
 
 Speed (2-core AMD EPYC (Zen 3) VM shared with other jobs, numba 0.68,
 measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
-±10 % or more, so the benchmark pairs them, see :mod:`.benchmark`):
+±10 % or more, so the benchmark pairs them, see
+:mod:`fpk_vibro.benchmarks.montecarlo`):
 
-- benchmark (``python -m fpk_vibro.montecarlo.benchmark``), one thread: kernel
+- benchmark (``fpk-vibro bench montecarlo``), one thread: kernel
   1.46–1.65·10⁸ path-steps/s with the default sampling (1.61–1.84·10⁸ without)
   against 2.9–3.3·10⁸ normals/s drawn alone by the same generator;
   kernel/floor 0.53–0.55 by wall time and 0.51–0.54 by the thread's CPU time

@@ -1,0 +1,4 @@
+"""Deprecated path: fpk_vibro.fem.benchmark_rtol moved to fpk_vibro.benchmarks.fem_rtol (kept for one release)."""
+from .._moved import alias
+
+alias(__spec__.name, run=__name__ == "__main__")
