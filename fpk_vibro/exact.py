@@ -115,9 +115,9 @@ class GibbsSolution(Solution):
                 def gap(x):
                     return -0.5 * b * (x * x - q1) * (x * x - q2)
         else:
-            qs = [2.0 * H / a] if a > 0 else []
+            qs = [2.0 * H / a] if a != 0 else []
             def gap(x):
-                return a * (2.0 * H / a - x * x)
+                return 2.0 * H - a * x * x
         roots = [s * math.sqrt(q) for q in qs if q > 0 for s in (1.0, -1.0)]
         cuts = sorted({c for c in roots if lo < c < hi} | {lo, hi})
         rootset = set(roots)

@@ -20,8 +20,8 @@ model ``features`` it handles (:data:`FEATURES`), whether its results are sample
   numerical keywords, budget and scene table: the method's table in a scene); leave
   ``options`` None for a method without numerical options;
 - ``check(system, mode, quantities)`` (optional) → a reason it cannot, or None, for
-  rules beyond the features (or it raises the InputError itself, e.g. fem's energy
-  density of a double well, naming ``quantities``).
+  rules beyond the features (or it raises the InputError itself, naming the argument
+  at fault, e.g. ``quantities``).  No built-in method needs one.
 
 :meth:`Method.supports` raises one :class:`~fpk_vibro._checks.InputError` naming the
 feature (or mode, or quantity) the method lacks and the registered methods that have
@@ -206,14 +206,6 @@ def _fem_options():
     return Options
 
 
-def _fem_check(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
-    if "energy" in quantities and not (system.a > 0 or (system.a == 0 and system.b > 0)):
-        raise InputError(f"fem: the energy density p(H) needs a > 0, or a = 0 < b (one orbit "
-                         f"per energy level); got a={system.a}, b={system.b}: remove "
-                         "'energy' or fem", where="fem", name="quantities")
-    return None
-
-
 def _montecarlo_solver(mode: str):
     from . import montecarlo
     return getattr(montecarlo, mode)          # its stationary, transient, first_passage
@@ -266,7 +258,7 @@ for _m in (
            solution_kinds=("averaging", "averaging_grid"), study="n_panel ladder",
            benchmark="averaging"),
     Method("fem", "finite elements for the 2-D FPK on the strip", MODES, QUANTITIES, _ALL,
-           _fem_solver, _fem_options, solution_kinds=("fem",), check=_fem_check,
+           _fem_solver, _fem_options, solution_kinds=("fem",),
            study="degree and nx ladder", benchmark="fem"),
     Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts", MODES,
            QUANTITIES, _ALL, _montecarlo_solver, _montecarlo_options, sampled=True,

@@ -172,6 +172,9 @@ def test_double_well_between_barriers():
     x = np.linspace(-1.5, 1.5, 31)
     px = sol.pdf_x(x)
     assert px[15] < px[5] and px[15] < px[25]      # minimum at the hump x = 0
-    with pytest.raises(NotImplementedError):
-        sol.pdf_energy(np.array([0.1]))
-    assert 0 < sol.moments()["P_impact"] < 1
+    P_impact = sol.moments()["P_impact"]
+    assert 0 < P_impact < 1
+    # p(H) of every level set (issue 31): above G(Δ) it carries P_impact, computed on
+    # the mesh without it
+    H = np.linspace(s.barrier_energy, 0.5 * sol.y_max ** 2, 4001)
+    assert abs(np.trapezoid(sol.pdf_energy(H), H) - P_impact) < 1e-4 * P_impact

@@ -40,9 +40,8 @@ def test_refusals_name_the_feature_and_the_methods_that_have_it():
     with pytest.raises(InputError, match="transient.*averaging, fem, montecarlo") as exc:
         methods()["exact"].supports(VibroImpactSystem.paper(r=1.0, D2=0.0), "transient")
     assert exc.value.name == "mode"
-    with pytest.raises(InputError, match="energy density"):
-        methods()["fem"].supports(DOUBLE_WELL, "stationary", ("energy",))
-    methods()["fem"].supports(DOUBLE_WELL, "stationary", ("x", "joint"))
+    # fem's p(H) covers every potential (issue 31): no rule beyond the features
+    methods()["fem"].supports(DOUBLE_WELL, "stationary", ("energy", "x", "joint"))
     assert features_of(DOUBLE_WELL) == ("walls", "inelastic walls", "several wells")
 
 

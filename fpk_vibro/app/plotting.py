@@ -63,7 +63,8 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path | 
         Output file (PNG); returned when given (and ``ax`` is not).
     H_max : float, optional
         Upper end of the H axis (default: where the widest density falls to 1e-3 of
-        its peak).
+        its peak); the axis starts at the lowest energy on the strips (0, or the
+        bottom of a double well's wells).
     points : sequence of (label, H, p, p_se or None), e.g. Monte Carlo histograms
     ax : matplotlib.axes.Axes, optional
         Draw here (a notebook's axes) and return it.
@@ -73,13 +74,16 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path | 
     Path or matplotlib.axes.Axes
         The file written, or the axes drawn into.
     """
+    from ..scales import potential_min
+    H_min = min((potential_min(sol.system) for _, sol in curves), default=0.0)
     if H_max is None:
-        H_max = 0.0
+        H_max = H_min
         for _, sol in curves:
-            H = np.linspace(0.0, 50.0 * max(sol.moments()["E_H"], 1e-12), 4001)
+            H = np.linspace(H_min, H_min + 50.0 * max(sol.moments()["E_H"] - H_min, 1e-12),
+                            4001)
             p = sol.pdf_energy(H)
             H_max = max(H_max, float(H[np.nonzero(p > 1e-3 * p.max())[0][-1]]))
-    H = np.linspace(0.0, H_max, 1200)[1:]
+    H = np.linspace(H_min, H_max, 1200)[1:]
     given = ax is not None
     if not given:
         fig, ax = _Figures.subplots(figsize=(6.4, 4.4), dpi=120)
@@ -91,7 +95,7 @@ def plot_energy_pdfs(curves: Sequence[tuple[str, Solution]], path: str | Path | 
     for g, label in sorted(marks.items()):
         ax.axvline(g, color="0.6", ls=":", lw=1)
         ax.text(g, ax.get_ylim()[1] * 0.97, " " + label, va="top", fontsize=8, color="0.4")
-    ax.set_xlim(0, H_max)
+    ax.set_xlim(H_min, H_max)
     ax.set_xlabel(r"energy $H = y^2/2 + G(x)$ (J/kg)")
     ax.set_ylabel(r"probability density $p(H)$ (kg/J)")
     if title:

@@ -3,15 +3,22 @@
 - ``pdf_x``, ``pdf_y``: on a tensor-product quadrilateral mesh exactly,
   p(x) = Σ_i ψ_i(x) Σ_j P_ij ∫χ_j dy (and likewise in y); on other meshes by a
   composite Gauss rule across the strip split at the mesh's node coordinates.
-- ``pdf_energy`` (coarea formula): since ∂H/∂y = y,
+- ``pdf_energy`` (coarea formula): since |∂H/∂y| = |y|,
 
-      p(H) = ∫ Σ_± p(x, ±√(2H − 2G(x))) / √(2H − 2G(x)) dx   over {G(x) < H} ∩ strip,
+      p(H) = ∮_{H(x,y)=H} p / |∇H| dl
+           = ∫ Σ_± p(x, ±√(2H − 2G(x))) / √(2H − 2G(x)) dx   over {G(x) < H} ∩ strip,
 
-  and with x = A sin θ (A the amplitude; docs/theory.md, §Energy and orbits) the
-  integrand is smooth:
-  dx / √(2H − 2G) = dθ / √(a + b A² (1 + sin²θ)/2); θ runs over the part of
-  [−π/2, π/2] inside the strip; Gauss–Legendre in θ.  Needs a monotone G on each
-  side (a > 0); otherwise NotImplementedError.
+  for any potential: every piece of the level set (the two wells of a double well
+  below its hump, an orbit cut by a wall, a softening spring beyond its hilltops)
+  counts.  The nodes are those of :func:`fpk_vibro.level_sets.level_set_nodes`
+  (x = ±ξ, the strip cut at the turning radii and at G's critical radius, a
+  substitution d = s² at each turning point and a rule graded towards each piece's
+  high-G end, where 1/√(2H − 2G) is largest).  Its error on a smooth integrand is
+  ~1e-10 relative (~1e-8 within 1e-6 of a hilltop's energy, where p(H) has a
+  logarithmic peak); on p_h, only piecewise polynomial, it is that of any fixed
+  rule across the element edges: 1e-7 to 6e-5 of the peak (measured, coarse Q2 to
+  the default; the single-well rule it replaced, x = A sin θ with 96 points, had
+  the same), below the FE error itself.
 """
 from __future__ import annotations
 
@@ -20,10 +27,9 @@ from typing import Any
 import numpy as np
 import skfem
 
-__all__ = ["marginal_x", "marginal_y", "energy_density"]
+from ..level_sets import level_set_nodes
 
-#: Gauss points in θ of the coarea integral of p(H).
-NTHETA = 96
+__all__ = ["marginal_x", "marginal_y", "energy_density"]
 
 
 def marginal_x(sol, x: Any) -> np.ndarray:
@@ -68,28 +74,27 @@ def _composite(breaks: np.ndarray, npts: int = 4) -> tuple[np.ndarray, np.ndarra
 
 
 def energy_density(sol, H: Any) -> np.ndarray:
-    """Density of H from p_h of ``sol`` by the coarea formula (module docstring)."""
-    s = sol.system
-    if not sol.has_energy_density(s):
-        raise NotImplementedError("pdf_energy of a FEMSolution needs a > 0, or a = 0 "
-                                  "< b (G monotone on each side)")
+    """Density of H from p_h of ``sol`` by the coarea formula, any potential.
+
+    Parameters
+    ----------
+    sol : FEMSolution
+    H : array_like
+        Energies; 0 at or below the lowest energy on the strip.
+
+    Returns
+    -------
+    ndarray
+        p(H), the shape of ``H`` (module docstring).
+
+    Notes
+    -----
+    Its error has no figure of its own: p(H) is the image of p under H, so
+    ∫ |p_H − p̂_H| dH ≤ ∫∫ |p − p̂| dx dy, the joint L1 error that
+    :meth:`FEMSolution.error_estimate` reports as ``"L1"`` (measured ratio 0.1 to
+    0.6 on the exact cases), plus the quadrature's error (module docstring).
+    """
     H = np.asarray(H, float)
-    Hf = H.ravel()
-    out = np.zeros(Hf.size)
-    pos = Hf > 0
-    A = s.amplitude(Hf[pos])
-    ok = np.isfinite(A) & (A > 0)
-    idx = np.flatnonzero(pos)[ok]
-    A = A[ok]
-    if idx.size:
-        t, wt = np.polynomial.legendre.leggauss(NTHETA)
-        lo = np.arcsin(np.clip(sol._x0 / A, -1, 1))
-        hi = np.arcsin(np.clip(sol._x1 / A, -1, 1))
-        th = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * t[None, :]
-        jac = 0.5 * (hi - lo)[:, None] * wt[None, :]
-        xq = A[:, None] * np.sin(th)
-        yq = np.sqrt(np.maximum(2.0 * (Hf[idx][:, None] - s.potential(xq)), 0.0))
-        den = np.sqrt(s.a + 0.5 * s.b * A[:, None] ** 2 * (1.0 + np.sin(th) ** 2))
-        vals = sol._eval(xq, yq) + sol._eval(xq, -yq)
-        out[idx] = np.sum(vals * jac / den, axis=1)
-    return sol._clip(out.reshape(H.shape))
+    nodes = level_set_nodes(sol.system, H, (sol._x0, sol._x1))
+    vals = sol._eval(nodes.x, nodes.v) + sol._eval(nodes.x, -nodes.v)
+    return sol._clip(nodes.integrate(vals).reshape(H.shape))

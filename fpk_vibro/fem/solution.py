@@ -202,12 +202,12 @@ class FEMSolution(Solution):
 
     @staticmethod
     def has_energy_density(system) -> bool:
-        """True where :meth:`pdf_energy` applies: G increasing on each side of 0
-        (a > 0, or a = 0 < b), so each energy level is one orbit."""
-        return system.a > 0 or (system.a == 0 and system.b > 0)
+        """True: :meth:`pdf_energy` applies to every potential (issue 31); kept for callers."""
+        return True
 
     def pdf_energy(self, H):
-        """Density of H from p_h by the coarea formula (:mod:`fpk_vibro.fem.marginals`)."""
+        """p(H) over the whole level set, any potential (:mod:`fpk_vibro.fem.marginals`);
+        its L1 error ≤ the joint one, ``error_estimate()["L1"]``: ∫|p_H − p̂_H| ≤ ∫∫|p − p̂|."""
         return energy_density(self, H)
 
     # -- moments and resolution ----------------------------------------------------------
