@@ -215,8 +215,8 @@ class FirstPassage:
         dict
             ``"mean_time"`` (relative error of τ), ``"reliability"`` (largest absolute
             error of R(t) on the time grid) and ``"assumes"`` (what the estimate takes
-            for granted).  Finite elements: the two-level estimate, with ``"order"``
-            and ``"levels"`` ((nx, ny, n_steps) of the coarse and fine solves).  Monte
+            for granted).  Finite elements: the three-level estimate, with ``"order"``
+            and ``"levels"`` ((nx, ny, n_steps) of the solves, the answer's last).  Monte
             Carlo: 2 SE + |bias| + 2 SE(bias) from one second run at 2 dt
             (:func:`fpk_vibro.montecarlo._first_passage.error_estimate`), with ``"bias"``
             (relative, signed) and ``"seconds"``.  Averaging: the difference to the

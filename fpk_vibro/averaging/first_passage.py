@@ -247,7 +247,7 @@ def _start_masses(system, kind, value, sol, faces, H_c) -> np.ndarray:
 MODEL_ERROR_ASSUMES = (
     "the difference to the finite-element first passage of the same system, energy and "
     "start (fem.first_passage at its default accuracy, or the given one) plus FE's own "
-    "two-level estimate; assumes FE resolves the system; reliability: the largest "
+    "estimate; assumes FE resolves the system; reliability: the largest "
     "|R_averaging − R_FE| over the times both grids cover")
 
 
