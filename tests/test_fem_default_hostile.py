@@ -21,7 +21,7 @@ from fpk_vibro import VibroImpactSystem, Wall, budget, fem
 from fpk_vibro._checks import InputError
 from fpk_vibro.app import cli
 from fpk_vibro.exact import GibbsSolution
-from fpk_vibro.fem.compare import JUDGED
+from fpk_vibro.fem.compare import AIMED, JUDGED
 
 RTOL = 1e-4          # the default's goal
 #: The issue's system: walls at -0.6 and 50 (E[H] 1.9e5 with pdf_x(0) = 0 before)
@@ -64,12 +64,13 @@ def _fine(sol):
 
 def _honest(sol, warned, ref_moments, ref_tol=1e-7):
     """The default's contract: the estimate covers the true error (twice), and the
-    call warned once exactly when the estimate misses rtol, naming it."""
+    call warned once exactly when the estimate misses rtol (the moments' or the L1
+    error's: issue 31), naming it."""
     est = sol.error_estimate()
     true = _true(sol.moments(), ref_moments)
     for k, v in true.items():
         assert v <= 2 * est[k] + ref_tol, (k, v, est[k])
-    missed = bool(max(est[k] for k in JUDGED if k in est) > RTOL)
+    missed = bool(max(est[k] for k in AIMED if k in est) > RTOL)
     assert len(warned) == (1 if missed else 0), [str(w.message) for w in warned]
     assert sol.info["under_resolved"] is missed
     if missed:
@@ -321,12 +322,16 @@ def _solved_dofs(monkeypatch):
     return seen
 
 
-@pytest.mark.parametrize("system,rtol", [(PAPER, None), (PAPER, 3e-7), (FAR, None)],
-                         ids=["paper-default", "paper-3e-7", "far-default"])
+@pytest.mark.parametrize("system,rtol", [(PAPER, None), (PAPER, 1e-3), (FAR, None)],
+                         ids=["paper-default", "paper-1e-3", "far-default"])
 def test_the_check_counts_the_ladder_the_run_solves(system, rtol, monkeypatch):
     """The check announced one degree-1 solve (3.7e4 DOFs, 0.5 s on the paper case)
-    whatever rtol; the ladder solves several levels (rtol = 3e-7: five, 2.0e5 DOFs).
-    Their DOFs are now within what the check counts, its memory their largest."""
+    whatever rtol; the ladder solves several levels.  Their DOFs are now within what
+    the check counts, its memory their largest; an rtol its model reaches within the
+    levels that fit has no note.  (Since issue 31 rtol bounds the L1 error too and
+    the default has 3 s: the model, on the slow side of the measured convergence,
+    says the default may stop short, where the paper case meets it at its first
+    level.)"""
     kw = {} if rtol is None else {"rtol": rtol}
     _, cost = fem.Options.prepare(system, "stationary", kw, probe=True)
     seen = _solved_dofs(monkeypatch)
@@ -334,7 +339,9 @@ def test_the_check_counts_the_ladder_the_run_solves(system, rtol, monkeypatch):
     assert sol.info["adapt_levels"] and len(seen) >= 2
     assert sum(seen) <= cost.work, (seen, cost.work)
     biggest = fem.Options(degree=4, nx=16).estimate(system, "stationary")
-    assert cost.memory >= biggest.memory and not cost.note
+    assert cost.memory >= biggest.memory
+    if rtol is not None:
+        assert not cost.note
 
 
 def test_the_check_says_when_rtol_is_beyond_the_ladder(tmp_path, capsys):

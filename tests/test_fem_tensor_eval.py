@@ -13,7 +13,7 @@ from fpk_vibro.model import Wall
 P = VibroImpactSystem.paper
 TOL = 1e-12
 CASES = {
-    "paper": (P(r=0.92), {}),
+    "paper": (P(r=0.92), dict(nx=24, ny=48)),      # (the default solve is Q4: no 2-D basis)
     "coarse_negative": (P(r=0.92), dict(nx=4, ny=2, positivity=False)),   # moments of p₊
     "r0": (P(r=0.0, D2=0.0), dict(nx=16, ny=32, positivity=False)),
     "double_well": (VibroImpactSystem(a=-1.0, b=1.0, c=0.1, D1=0.05, delta=2.0, r=0.9),

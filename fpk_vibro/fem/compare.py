@@ -15,18 +15,28 @@ import numpy as np
 from ..keys import JUDGED, moment_scale
 from ..quadrature import gauss_grid
 
-__all__ = ["KEYS", "JUDGED", "worst", "difference", "l1_difference"]
+__all__ = ["KEYS", "JUDGED", "AIMED", "worst", "decided_by", "difference", "l1_difference"]
 
 KEYS = ("L1", "E_H", "E_x2", "E_y2", "P_impact")
 
-#: The entries ``rtol`` and ``under_resolved`` judge: the relative moments.  The L1
-#: error of the density is reported but not aimed at: near the corners (x_w, 0) of
-#: r < 1 and where D2 makes D(x) kink it converges slowly (measured: 2.5e-4 at Q4,
-#: nx = 64, r = 0.9, D2 = 0.1, while the moments were within 2e-6).
+#: What an FE ``rtol`` bounds (issue 31): the relative moments (:data:`JUDGED`) and
+#: the L1 error of the density, which ∫p = 1 makes relative too.  The density is
+#: the answer of an FPK solver, the moments its summaries: on the exact double well
+#: the moments met rtol = 1e-5 at Q3, nx = 16, with an L1 error of 6e-3.  Near the
+#: corners (x_w, 0) of r < 1 the L1 error converges more slowly than the moments
+#: (measured: order 1.3–2 in nx at Q4 with wall grading 2, the moments 3–5).
+AIMED = ("L1",) + JUDGED
 
 
-def worst(est: dict[str, Any]) -> float:
-    return max(float(est[k]) for k in JUDGED if k in est)
+def worst(est: dict[str, Any], keys: tuple[str, ...] = JUDGED) -> float:
+    """The largest of the entries ``keys`` of an estimate (default: the moments;
+    :data:`AIMED` for what an rtol bounds)."""
+    return max(float(est[k]) for k in keys if k in est)
+
+
+def decided_by(est: dict[str, Any], keys: tuple[str, ...] = AIMED) -> str:
+    """The key of the largest entry among ``keys``: the quantity that decided."""
+    return max((k for k in keys if k in est), key=lambda k: float(est[k]))
 
 
 _gauss_grid = gauss_grid          # (the name the estimate's tests import)

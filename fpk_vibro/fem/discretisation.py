@@ -62,7 +62,8 @@ class Discretisation:
         The option it was built with (False for Galerkin).
     L, M : scipy.sparse.csr_matrix
         Generator and mass matrix (for "positive": the positive generator A and the
-        lumped masses diag(m)).
+        lumped masses diag(m)); M of the tensor assembly is made on first use (a
+        stationary solve does not need it).
     unit : ndarray
         ∫ φ_i: the mass of the density is ``unit @ p``.
     order : ndarray or None
@@ -80,7 +81,7 @@ class Discretisation:
                  ranks: tuple | None = None, y_max: float | None = None,
                  assembly: str = "general", seconds: float = 0.0) -> None:
         self.system, self.mesh, self.degree = system, mesh, degree
-        self.L, self.M, self.unit = L, M, unit
+        self.L, self._M, self.unit = L, M, unit
         self.order, self.tensor, self.points = order, tensor, points
         self.positivity, self.walls = positivity, walls
         self.ranks, self.y_max, self.assembly, self.seconds = ranks, y_max, assembly, seconds
@@ -91,6 +92,12 @@ class Discretisation:
         self.options: Any = None
         #: notes on walls beyond the density's support (fem.mesh.Domain.beyond)
         self.beyond: tuple[str, ...] = ()
+
+    @property
+    def M(self) -> sp.csr_matrix:
+        if callable(self._M):          # (the tensor assembly's, made on first use)
+            self._M = self._M()
+        return self._M
 
     @property
     def kind(self) -> str:
@@ -219,9 +226,10 @@ def _assemble(system: VibroImpactSystem, opts: Any) -> tuple[Discretisation, Any
             pts = np.stack(np.meshgrid(op.xbasis.doflocs[0], op.ybasis.doflocs[0],
                                        indexing="ij")).reshape(2, -1)
             ranks = tuple(np.argsort(np.argsort(b.doflocs[0])) for b in (op.xbasis, op.ybasis))
-            return Discretisation(system, m, degree, op.L, op.M, op.unit, order, (xs, ys), pts,
-                                  positivity, dom.walls, ranks=ranks, y_max=dom.y_max,
-                                  assembly="tensor", seconds=time.perf_counter() - t0), dom
+            return Discretisation(system, m, degree, op.L, lambda: op.M, op.unit, order,
+                                  (xs, ys), pts, positivity, dom.walls, ranks=ranks,
+                                  y_max=dom.y_max, assembly="tensor",
+                                  seconds=time.perf_counter() - t0), dom
     else:
         m = load_strip_mesh(system, opts.mesh, "fem")
         dom = mesh_domain(system, m)

@@ -29,6 +29,7 @@ import skfem
 from ..model import VibroImpactSystem
 from . import forms
 from .impact import coupling_matrix, wall_matrix_1d
+from .kron import kron_sum
 from .mesh import Domain, StripEnd, ends_at_wall, wall_restitutions
 
 __all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
@@ -134,20 +135,32 @@ class TensorOperator:
 
     Attributes
     ----------
-    L, M : csr_matrix
-        Generator and mass matrix in Kronecker order.
+    L : csr_matrix
+        Generator in Kronecker order.
     unit : ndarray
         ∫ φ_(i,j) = (∫ψ_i)(∫χ_j): the normalisation row.
     xbasis, ybasis : skfem.CellBasis
         The 1-D bases; DOF coordinates ``xbasis.doflocs[0]``, ``ybasis.doflocs[0]``.
     domain : Domain
+    mass_factors : (Mx, My)
+        The 1-D mass matrices: ``M`` = Mx ⊗ My, assembled on first use (a
+        stationary solve never needs it: issue 31 measured it at a third of the
+        assembly of Q4 on 64 × 256 cells).
     """
     L: sp.csr_matrix
-    M: sp.csr_matrix
     unit: np.ndarray
     xbasis: skfem.CellBasis
     ybasis: skfem.CellBasis
     domain: Domain
+    mass_factors: tuple
+    _M: sp.csr_matrix | None = None
+
+    @property
+    def M(self) -> sp.csr_matrix:
+        """The mass matrix in Kronecker order."""
+        if self._M is None:
+            self._M = kron_sum([self.mass_factors])
+        return self._M
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -196,51 +209,8 @@ def assemble_tensor(system: VibroImpactSystem, xnodes: np.ndarray, ynodes: np.nd
         E = sp.csr_matrix(([1.0], ([iw], [iw])), shape=(bx.N, bx.N))
         walls.append(sp.kron(E, wall_matrix_1d(by, wall, dom.y_max, 2 * degree + 1)))
     L = L - sum(walls[1:], walls[0])
-    M = kron_sum([(Mx, My)])
     unit = np.kron(np.asarray(Mx.sum(axis=0)).ravel(), np.asarray(My.sum(axis=0)).ravel())
-    return TensorOperator(L.tocsr(), M.tocsr(), unit, bx, by, dom)
-
-
-def kron_sum(terms: list[tuple[sp.spmatrix, sp.spmatrix]]) -> sp.csr_matrix:
-    """Σ_t X_t ⊗ Y_t in one pass (docs/theory.md, §Assembly and solve).
-
-    All X_t (and all Y_t) are put on their common sparsity pattern, stored as
-    padded row arrays (1-D FE matrices have a few entries per row).  Row (i, k) of
-    X ⊗ Y holds X_ij Y_kl at column j·ny + l, for j in row i, l in row k: a 4-D
-    broadcast whose C-order flattening *is* the CSR order, so the CSR arrays are
-    written directly (no COO sort) and the values are Σ_t outer products.
-    """
-    def padded(mats):
-        pat = sp.csr_matrix(sum(abs(m) for m in mats))
-        pat.sum_duplicates()
-        pat.sort_indices()
-        n = pat.shape[0]
-        cnt = np.diff(pat.indptr)
-        w = int(cnt.max())
-        slot = np.arange(pat.nnz) - np.repeat(pat.indptr[:-1], cnt)
-        row = np.repeat(np.arange(n), cnt)
-        cols = np.zeros((n, w), dtype=np.int64)
-        cols[row, slot] = pat.indices
-        mask = np.zeros((n, w), dtype=bool)
-        mask[row, slot] = True
-        vals = []
-        for m in mats:
-            v = np.zeros((n, w))
-            v[row, slot] = np.asarray(sp.csr_matrix(m)[row, pat.indices]).ravel()
-            vals.append(v)
-        return n, cols, mask, vals
-
-    nx, xc, xm, xv = padded([t[0] for t in terms])
-    ny, yc, ym, yv = padded([t[1] for t in terms])
-    mask = (xm[:, None, :, None] & ym[None, :, None, :]).reshape(nx * ny, -1)
-    data = xv[0][:, None, :, None] * yv[0][None, :, None, :]
-    for x, y in zip(xv[1:], yv[1:]):
-        data += x[:, None, :, None] * y[None, :, None, :]
-    cols = xc[:, None, :, None] * ny + yc[None, :, None, :]
-    flat = mask.ravel()
-    indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
-    return sp.csr_matrix((data.ravel()[flat], cols.ravel()[flat], indptr),
-                         shape=(nx * ny, nx * ny))
+    return TensorOperator(L.tocsr(), unit, bx, by, dom, (Mx, My))
 
 
 def assemble_tensor_bases(xnodes: np.ndarray, ynodes: np.ndarray, degree: int

@@ -115,13 +115,13 @@ class Options(_Options):
                                 "assembly; not in first passage)", "int", lo=1, hi=4,
                                 modes=ALL,
                                 auto="2, or 1 with positivity")
-    rtol: float | None = option(None, "accuracy goal: degree 2-4 and nx are chosen until the "
-                                "estimated relative errors of E[H], E[x²], E[y²], P_impact "
-                                "are below it (sol.error_estimate(), which also gives the "
-                                "L1 error; in a transient at every output time, space "
-                                "and time); not with mesh, nx, ny, degree or positivity "
+    rtol: float | None = option(None, "accuracy goal: degree 2-4, nx, ny are chosen until "
+                                "the estimated L1 error of p and relative errors of E[H], "
+                                "E[x²], E[y²], P_impact are below it (sol.error_estimate();"
+                                " in a transient at every output time, space and time); "
+                                "not with mesh, nx, ny, degree or positivity "
                                 "(first passage: nx, ny, n_steps doubled from the given "
-                                "ones until its two-level estimate meets it)",
+                                "ones until its three-level estimate meets it)",
                                 "float", lo=1e-10, hi=0.5, modes=ALL,
                                 auto="stationary: 1e-4 (best effort: flagged and one "
                                      "RuntimeWarning, not refused, when not reached) "

@@ -151,9 +151,10 @@ def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
     t0 = time.perf_counter()
     it = 0
     extra: dict = {}
+    res = None
     if solver == "direct":
         A, b, pin = pinned_system(L, unit, pin)
-        p, it, extra["ordering"] = solve_direct(A, b, grid, tol)
+        p, it, extra["ordering"], res = solve_direct(A, b, grid, tol)
     else:
         # AMG wants positive diagonals: pin −L (same null vector, same e_k row)
         A, b, pin = pinned_system(-sp.csr_matrix(L), unit, pin)
@@ -165,11 +166,12 @@ def solve_stationary(L: sp.spmatrix, unit: np.ndarray, *, solver: str = "auto",
             if requested != "auto":
                 raise
             extra["fallback"] = str(exc)
-            B, b, pin = pinned_system(L, unit, pin)
-            p, it, extra["ordering"] = solve_direct(B, b, grid, tol)
+            A, b, pin = pinned_system(L, unit, pin)
+            p, it, extra["ordering"], res = solve_direct(A, b, grid, tol)
             solver = f"direct (fallback: {exc.solver} did not converge)"
     extra["pin"] = pin
-    res = relative_residual(A, p, b)
+    if res is None:
+        res = relative_residual(A, p, b)
     p = p / float(unit @ p)
     dt = time.perf_counter() - t0
     return p, SolveInfo(solver, dt, res, it, extra)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from ..model import VibroImpactSystem
 from .discretisation import build
-from .estimate import adaptive
+from .adaptive import adaptive
 from .options import DEFAULT_RTOL, Options
 from .solution import FEMSolution
 

@@ -8,9 +8,11 @@ kept below ``rtol / 4`` at the first level and 4× smaller at each richer one, s
 level is richer in space and in time.  The estimate of a level at each output time
 is its difference to the next level (L1 and the relative moments, the same
 :func:`~fpk_vibro.fem.estimate.difference`), times 2, plus the tail beyond y_max;
-when the largest relative moment estimate over all output times is below ``rtol``
-the level is returned, each density carrying its estimate
-(``sol.error_estimate()``).  Assumption: the richer level is the more accurate in
+when the largest estimate over all output times, of the L1 error of the density and
+of the relative moments alike (:data:`~fpk_vibro.fem.compare.AIMED`, issue 31), is
+below ``rtol`` the level is returned, each density carrying its estimate
+(``sol.error_estimate()``) and ``info["rtol_decided_by"]``, the quantity that came
+nearest to rtol.  Assumption: the richer level is the more accurate in
 space and time.  Refused in one line naming ``rtol`` when the next level would
 take the run past :data:`MAX_SECONDS` or the budget.
 
@@ -24,6 +26,7 @@ from typing import Any
 
 from .._checks import InputError
 from ..model import VibroImpactSystem
+from .compare import AIMED, decided_by
 from .estimate import richer_options, start_nx, worst
 from .transient_estimate import estimates, give
 
@@ -76,7 +79,7 @@ def adaptive_transient(system: VibroImpactSystem, initial: Any, times: Any, rtol
         nxt = run(nxt_opts, tol / 4.0)
         t1 = time.perf_counter()
         ests = estimates(cur, nxt)
-        e = max(worst(est) for est in ests)
+        e = max(worst(est, AIMED) for est in ests)
         history.append((level.degree, level.nx, e))
         if e <= rtol:
             break
@@ -86,6 +89,7 @@ def adaptive_transient(system: VibroImpactSystem, initial: Any, times: Any, rtol
          richer=f"degree {nxt_opts.degree}, nx {nxt_opts.nx}, tol {tol / 4:.2g}",
          seconds=last[0] + time.perf_counter() - t1, rtol=rtol,
          adapt_seconds=time.perf_counter() - t0,
-         adapt_levels="; ".join(f"degree {d}, nx {n}: {x:.2g}" for d, n, x in history))
+         adapt_levels="; ".join(f"degree {d}, nx {n}: {x:.2g}" for d, n, x in history),
+         rtol_decided_by=decided_by(max(ests, key=lambda est: worst(est, AIMED))))
     return cur
 

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from . import integrals
-from .compare import worst
+from .compare import AIMED, JUDGED, worst
 
 __all__ = ["RESOLUTION_TOL", "diagnosis", "flag_estimate"]
 
@@ -39,9 +39,11 @@ def diagnosis(q: dict[str, Any], info: dict) -> dict[str, Any]:
 
 def flag_estimate(info: dict, resolution: dict[str, Any], est: dict[str, Any]) -> None:
     """Record the largest judged entry of ``est`` in ``info`` and flag the density
-    ``under_resolved`` where it exceeds ``info["rtol"]`` (or :data:`RESOLUTION_TOL`)."""
-    e = worst(est)
+    ``under_resolved`` where it exceeds ``info["rtol"]`` (or :data:`RESOLUTION_TOL`).
+    With an rtol the L1 error is judged too (:data:`~fpk_vibro.fem.compare.AIMED`:
+    what rtol bounds); without, the moments."""
     goal = info.get("rtol") or RESOLUTION_TOL
+    e = worst(est, AIMED if info.get("rtol") else JUDGED)
     info["error_estimate"] = e if np.isfinite(e) else 1e300     # (JSON: no inf)
     if e > goal:
         reason = (f"error estimate {e:.2g} > {goal:g} ({est['richer']} differs; "
