@@ -197,10 +197,11 @@ class GibbsSolution(Solution):
 
 
 def require_gibbs(system: VibroImpactSystem) -> None:
-    """Raise :class:`~fpk_vibro._checks.InputError` unless D2 = 0 and every wall has r = 1."""
+    """Raise :class:`~fpk_vibro._checks.InputError` unless D2 = 0 and every wall has
+    r = 1 (a number, or a law r(u) ≡ 1)."""
     check_system("exact.gibbs", system)
     rs = {side: w.r for side, w in system.walls}
-    if system.D2 != 0 or any(r != 1.0 for r in rs.values()):
+    if system.D2 != 0 or any(not w.elastic for _, w in system.walls):   # (a law r ≡ 1 too)
         got = (f"r={system.r}" if system.r is not None
                else ", ".join(f"{side} r={r}" for side, r in rs.items()))
         raise InputError(f"exact: the Gibbs density needs D2 = 0 and r = 1 at every wall "

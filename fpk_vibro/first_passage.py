@@ -1,7 +1,8 @@
-"""First passage out of the safe set {H < H_c}: one result type for every method.
+"""First passage out of a safe set: one result type for every method.
 
-A path starts inside the safe set and is stopped when its energy first reaches the
-critical level H_c.  The time it takes is the first-passage time T; engineers ask
+A path starts inside the safe set and is stopped when it first leaves it: its energy
+reaches the critical level H_c, its displacement a bound, or an impact is faster than a
+threshold (:mod:`fpk_vibro.safe_sets`).  The time it takes is the first-passage time T; engineers ask
 for its mean τ (the mean first-passage time) and for the reliability
 R(t) = P(T > t).  Starts: a point ``(x0, y0)``, a Gaussian ``{"mean": (x0, y0),
 "std": (sx, sy)}``, or ``"stationary"`` (the stationary density conditioned on the
@@ -28,9 +29,10 @@ import numpy as np
 
 from ._checks import check_float, invalid
 from .model import VibroImpactSystem
+from .safe_sets import SafeSet, parse_safe_set
 
 __all__ = ["FirstPassage", "ESTIMATORS", "parse_start", "check_energy", "check_times", "survival_at",
-           "merge_requested", "MAX_TIMES"]
+           "merge_requested", "MAX_TIMES", "SafeSet", "parse_safe_set"]
 
 #: Most requested times accepted.
 MAX_TIMES = 10 ** 6
@@ -129,12 +131,14 @@ def check_energy(where: str, system: VibroImpactSystem, energy: Any) -> float:
     return check_float("energy", energy, lo=g0, lo_open=True, where=where)
 
 
-def parse_start(where: str, system: VibroImpactSystem, start: Any, energy: float
-                ) -> tuple[str, Any]:
+def parse_start(where: str, system: VibroImpactSystem, start: Any,
+                energy: "float | SafeSet") -> tuple[str, Any]:
     """("point", (x0, y0)), ("gaussian", {"mean", "std"}) or ("stationary", None).
 
-    A point must lie in the safe set (H < H_c) and on the strip.
+    A point must lie in the safe set (``energy``: H_c, or any :class:`SafeSet`) and on
+    the strip.
     """
+    safe = energy if isinstance(energy, SafeSet) else SafeSet("energy", energy=energy)
     if start is None or (isinstance(start, str) and start == "stationary"):
         return "stationary", None
     if isinstance(start, dict):
@@ -147,9 +151,11 @@ def parse_start(where: str, system: VibroImpactSystem, start: Any, energy: float
         lo, hi = system.x_bounds
         if not lo <= x0 <= hi:
             raise invalid(where, "start", f"a point on the strip {lo} <= x <= {hi}", start)
-        if not float(system.energy(x0, y0)) < energy:
-            raise invalid(where, "start", f"a point inside the safe set H < {energy:g}",
-                          start, f"H(x0, y0) = {float(system.energy(x0, y0)):.4g}")
+        if not bool(safe.contains(system, x0, y0)):
+            got = (f"H(x0, y0) = {float(system.energy(x0, y0)):.4g}"
+                   if safe.kind == "energy" else None)
+            raise invalid(where, "start", f"a point inside the safe set {safe.describe()}",
+                          start, got)
         return "point", (x0, y0)
     raise invalid(where, "start", "(x0, y0), {'mean': ..., 'std': ...} or 'stationary'",
                   start)
@@ -170,8 +176,8 @@ class FirstPassage:
     method : str
         "fem", "averaging" or "montecarlo".
     system : VibroImpactSystem
-    energy : float
-        The critical energy H_c.
+    energy : float or None
+        The critical energy H_c of an energy safe set (None for another kind).
     start : tuple
         ("point", (x0, y0)), ("gaussian", {...}) or ("stationary", None).
     mean : float
@@ -184,6 +190,8 @@ class FirstPassage:
         A 95 % confidence band of R (Monte Carlo).
     info : dict
         Method-specific details (mesh, paths, seconds, quantiles, ...).
+    safe_set : SafeSet or None
+        The set left (:mod:`fpk_vibro.safe_sets`); None means {H < energy}.
     """
 
     method: str
@@ -198,6 +206,11 @@ class FirstPassage:
     info: dict = field(default_factory=dict)
     _mean_at: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     _estimate: dict | None = None
+    safe_set: SafeSet | None = None
+
+    def __post_init__(self) -> None:
+        if self.safe_set is None:
+            self.safe_set = SafeSet("energy", energy=self.energy)
 
     def error_estimate(self, reference: "FirstPassage | None" = None) -> dict[str, Any]:
         """The method's own error estimate of τ and R(t), made on the first call and kept.
@@ -269,7 +282,8 @@ class FirstPassage:
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-able summary (for results.json)."""
-        out = {"method": self.method, "energy": self.energy, "start": self.start[0],
+        out = {"method": self.method, "energy": self.energy,
+               "safe_set": self.safe_set.to_dict(), "start": self.start[0],
                "start_value": self.start[1], "mean": self.mean, "mean_se": self.mean_se,
                "times": self.times.tolist(), "survival": self.survival.tolist(),
                "info": {k: v for k, v in self.info.items()

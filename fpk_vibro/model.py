@@ -24,9 +24,10 @@ import numpy as np
 
 from ._checks import InputError, check_float, invalid
 from .option_schema import REQUIRED, Option
-from .wall import WALL_FIELDS, Wall
+from .restitution import Restitution
+from .wall import R_ALLOWED, WALL_FIELDS, Wall
 
-__all__ = ["VibroImpactSystem", "Wall", "BARRIER_KINDS", "FIELDS", "WALL_FIELDS",
+__all__ = ["VibroImpactSystem", "Wall", "Restitution", "BARRIER_KINDS", "FIELDS", "WALL_FIELDS",
            "check_system"]
 
 BARRIER_KINDS = ("both", "right", "left", "none")
@@ -48,8 +49,9 @@ FIELDS: dict[str, Option] = {
                  unit="1/s³", scene="system.D2"),
     "delta": Option(None, "barrier position Δ; required unless sides = \"none\"", "float",
                     lo=0.0, lo_open=True, unit="m", scene="barriers.delta"),
-    "r": Option(1.0, "restitution coefficient, y⁺ = −r y⁻", "float", lo=0.0, hi=1.0,
-                scene="barriers.r"),
+    "r": Option(1.0, "restitution, y⁺ = −r(|y⁻|) y⁻: a coefficient or a law of the impact "
+                "speed", "custom", check=lambda n, v, w: Restitution.of(v, w, n),
+                allowed=R_ALLOWED, scene="barriers.r"),
     "barriers": Option("both", "barriers at ±Δ, at +Δ only, at −Δ only, or none",
                        "choice", choices=BARRIER_KINDS, scene="barriers.sides"),
     "left": Option(None, "the left wall {position, r} (instead of the shorthand)", "custom",
@@ -150,7 +152,7 @@ class VibroImpactSystem:
                         getattr(self, field),
                         f"there is no {' or '.join(free)} wall, so the potential must "
                         f"confine x there (a={self.a}, b={self.b})")
-        if self.c == 0 and all(w is None or w.r == 1.0 for w in (left, right)):
+        if self.c == 0 and all(w is None or w.elastic for w in (left, right)):
             raise _fail("c", "> 0 when there is no other energy loss (r = 1 or no barrier)",
                         self.c, "without any dissipation there is no stationary density")
 
@@ -188,6 +190,8 @@ class VibroImpactSystem:
                    "barriers": barriers}
         for name, value in derived.items():
             given = getattr(self, name)
+            if name == "r" and isinstance(given, (dict, Restitution)):   # a stored law
+                given = FIELDS["r"].validate("r", given, "VibroImpactSystem")
             if given != SHORTHAND[name] and given != value:
                 raise _fail(name, f"{value!r} (what the walls give) or left out", given,
                             "give the walls (left, right) or the symmetric shorthand "
@@ -247,8 +251,15 @@ class VibroImpactSystem:
         return type(self)(**fields)
 
     def to_dict(self) -> dict[str, Any]:
-        """The fields as plain values (walls as {position, r} tables or None)."""
-        return dataclasses.asdict(self)
+        """The fields as plain values (walls as {position, r} tables or None; a law as
+        its scene table, :meth:`fpk_vibro.restitution.Restitution.to_dict`)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if isinstance(out["r"], Restitution):
+            out["r"] = out["r"].to_dict()
+        for side in ("left", "right"):
+            if out[side] is not None:
+                out[side] = out[side].to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> "VibroImpactSystem":

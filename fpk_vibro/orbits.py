@@ -51,7 +51,8 @@ import numpy as np
 from .model import VibroImpactSystem
 
 __all__ = ["OrbitNodes", "orbit_nodes", "single_well", "require_single_well", "energy_loss",
-           "energy_floor", "wall_energies", "energy_loss_first_order", "why_not_single_well"]
+           "energy_floor", "wall_energies", "energy_loss_first_order", "why_not_single_well",
+           "wall_loss"]
 
 
 class OrbitNodes:
@@ -144,18 +145,29 @@ def wall_energies(system: VibroImpactSystem) -> np.ndarray:
     return np.unique([float(system.potential(w.position)) for _, w in system.walls])
 
 
+def wall_loss(system: VibroImpactSystem, wall, H: np.ndarray) -> np.ndarray:
+    """Energy one impact on ``wall`` takes from the orbit of energy ``H``:
+    (1 − r(u)²)(H − G(x_w)) at u = sqrt(2 (H − G(x_w))), the wall's law
+    (:meth:`fpk_vibro.wall.Wall.loss`); 0 where the orbit does not reach the wall.
+    For a constant r (a number, or a law constant in u) this is (1 − r²)(H − G(x_w))
+    as computed before laws existed (r is then exact, so the result is too)."""
+    K = np.maximum(np.asarray(H, dtype=float) - float(system.potential(wall.position)), 0.0)
+    r = wall.r_at(np.sqrt(2.0 * K))
+    return (1.0 - r * r) * K
+
+
 def _first_order(system: VibroImpactSystem, H: np.ndarray) -> list[np.ndarray]:
-    """(1 − r_w²) max(H − G(x_w), 0) for each wall: the loss at a first impact."""
-    return [(1.0 - w.r * w.r) * np.maximum(H - float(system.potential(w.position)), 0.0)
-            for _, w in system.walls]
+    """(1 − r_w(u_w)²) max(H − G(x_w), 0) for each wall: the loss at a first impact."""
+    return [wall_loss(system, w, H) for _, w in system.walls]
 
 
 def energy_loss_first_order(system: VibroImpactSystem, H: np.ndarray) -> np.ndarray:
-    """Σ_w (1 − r_w²)(H − G(x_w)) over the walls with G(x_w) < H.
+    """Σ_w (1 − r_w(u_w)²)(H − G(x_w)) over the walls with G(x_w) < H.
 
     The loss per quasi-period to first order in 1 − r: each impact takes the share
-    1 − r_w² of the kinetic energy H − G(x_w) at the wall.  :func:`energy_loss`
-    compounds the impacts instead; the two agree to first order in 1 − r.
+    1 − r_w(u_w)² of the kinetic energy H − G(x_w) at the wall (u_w its speed).
+    :func:`energy_loss` compounds the impacts instead; the two agree to first order
+    in 1 − r.
     """
     H = np.asarray(H, dtype=float)
     return sum(_first_order(system, H), np.zeros_like(H))
@@ -164,32 +176,35 @@ def energy_loss_first_order(system: VibroImpactSystem, H: np.ndarray) -> np.ndar
 def energy_loss(system: VibroImpactSystem, H: np.ndarray) -> np.ndarray:
     """Energy lost to impacts in one quasi-period, δ(H) (paper Eq. 13), impacts compounded.
 
-    One wall: (1 − r²)(H − G(x_w)).  Two walls, hit in the order 1 then 2: the
-    first impact leaves H' = H − (1 − r₁²)(H − G₁), and the second takes
-    (1 − r₂²)(H' − G₂) if H' > G₂:
+    One wall: (1 − r(u)²)(H − G(x_w)), u = sqrt(2 (H − G(x_w))) the impact speed
+    (:func:`wall_loss`; r(u) the wall's law, a constant for a number).  Two walls,
+    hit in the order 1 then 2: the first impact leaves H' = H − d₁(H), and the second
+    takes d₂(H') (zero if H' < G₂):
 
-        δ₁₂ = (1 − r₁²)(H − G₁)⁺ + (1 − r₂²)(H − G₂ − (1 − r₁²)(H − G₁)⁺)⁺.
+        δ₁₂ = d₁(H) + d₂(H − d₁(H)),   d_w(H) = (1 − r_w(u_w)²)(H − G_w)⁺.
 
     A quasi-period starting at a random phase of the orbit meets the right wall
     first half of the time (the two velocity branches take equal times), so
     δ = (δ_RL + δ_LR)/2.  The orders differ by (1 − r_L²)(1 − r_R²)(G_R − G_L)
     when both walls are hit, a second-order term; so does the first-order sum of
-    :func:`energy_loss_first_order`.  Walls at ±Δ with one r give exactly the
-    paper's (1 − r⁴)(H − G(Δ)) (computed by that formula, bit for bit), one wall
-    (1 − r²)(H − G(x_w)); zero below the wall energies or without walls.
+    :func:`energy_loss_first_order`.  Walls at ±Δ with one number r give exactly the
+    paper's (1 − r⁴)(H − G(Δ)) (computed by that formula, bit for bit; a law constant
+    in u gives it to rounding), one wall (1 − r²)(H − G(x_w)); zero below the wall
+    energies or without walls.
     """
     H = np.asarray(H, dtype=float)
     if not system.has_barrier:
         return np.zeros_like(H)
-    if system.symmetric or len(system.walls) == 1:
+    numbers = all(w.law is None for _, w in system.walls)
+    if numbers and (system.symmetric or len(system.walls) == 1):
         r2 = system.r ** 2
         factor = 1.0 - r2 * r2 if system.barriers == "both" else 1.0 - r2
         return factor * np.maximum(H - system.barrier_energy, 0.0)
+    if len(system.walls) == 1:
+        return wall_loss(system, system.walls[0][1], H)
     (_, w1), (_, w2) = system.walls
-    e1, e2 = (H - float(system.potential(w.position)) for w in (w1, w2))
-    k1, k2 = 1.0 - w1.r * w1.r, 1.0 - w2.r * w2.r
-    d1, d2 = k1 * np.maximum(e1, 0.0), k2 * np.maximum(e2, 0.0)
-    return 0.5 * (d1 + k2 * np.maximum(e2 - d1, 0.0) + d2 + k1 * np.maximum(e1 - d2, 0.0))
+    d1, d2 = wall_loss(system, w1, H), wall_loss(system, w2, H)
+    return 0.5 * (d1 + wall_loss(system, w2, H - d1) + d2 + wall_loss(system, w1, H - d2))
 
 
 def _theta_limit(bound: float, A: np.ndarray) -> np.ndarray:

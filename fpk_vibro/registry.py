@@ -49,12 +49,16 @@ from ._checks import InputError, show
 from .first_passage import ESTIMATORS as PASSAGE_ESTIMATORS
 from .model import VibroImpactSystem
 from .references import provide
+from .safe_sets import SUPPORTED_BY as SAFE_SETS_SUPPORTED_BY
 
 __all__ = ["Method", "FEATURES", "MODES", "QUANTITIES", "features_of", "methods", "register",
            "unregister", "capability_table"]
 
 MODES = ("stationary", "transient", "first_passage")
-QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
+QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage",
+              "inter_impact", "impact_energy")
+#: The safe sets a first passage may leave (:mod:`fpk_vibro.safe_sets`).
+SAFE_SETS = ("energy", "displacement", "impact_speed")
 #: The model features a method may or may not handle, with what each means.
 FEATURES = {
     "walls": "walls (impacts)",
@@ -63,6 +67,7 @@ FEATURES = {
     "several wells": "a potential not increasing in |x| on the strip (double well, "
                      "softening beyond its hump)",
     "no damping": "no damping (c = 0)",
+    "restitution laws": "restitution that depends on the impact speed (a law r(u))",
 }
 
 
@@ -72,7 +77,7 @@ def features_of(system: VibroImpactSystem) -> tuple[str, ...]:
     out = []
     if system.has_barrier:
         out.append("walls")
-    if any(w.r < 1.0 for _, w in system.walls):
+    if any(not w.elastic for _, w in system.walls):
         out.append("inelastic walls")
     if system.D2 != 0:
         out.append("parametric noise")
@@ -80,6 +85,8 @@ def features_of(system: VibroImpactSystem) -> tuple[str, ...]:
         out.append("several wells")
     if system.c == 0:
         out.append("no damping")
+    if any(w.law is not None for _, w in system.walls):
+        out.append("restitution laws")
     return tuple(out)
 
 
@@ -100,6 +107,7 @@ class Method:
         default=None, repr=False)
     study: str = ""
     benchmark: str = ""
+    safe_sets: tuple[str, ...] = ("energy",)
 
     def __post_init__(self) -> None:
         # ``solver(mode)`` refuses a mode the method does not declare, whatever the
@@ -172,12 +180,23 @@ def register(method: Method) -> Method:
     if not isinstance(method, Method):
         raise TypeError(f"register needs a Method; got {type(method).__name__}")
     _REGISTRY[method.name] = method
+    _declare_safe_sets()
     return method
 
 
 def unregister(name: str) -> None:
     """Remove a registered method (tests register toy methods)."""
     _REGISTRY.pop(name, None)
+    _declare_safe_sets()
+
+
+def _declare_safe_sets() -> None:
+    """Tell :mod:`fpk_vibro.safe_sets` which methods leave which safe set."""
+    SAFE_SETS_SUPPORTED_BY.clear()
+    for kind in SAFE_SETS:
+        SAFE_SETS_SUPPORTED_BY[kind] = tuple(
+            m.name for m in _REGISTRY.values()
+            if "first_passage" in m.modes and kind in m.safe_sets)
 
 
 def methods() -> dict[str, Method]:
@@ -250,23 +269,25 @@ provide("fem", _fem_reference)
 provide("fem-transient", _fem_transient_reference)
 provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(system, **kw))
 
-_ALL = tuple(FEATURES)
 for _m in (
     Method("averaging", "stochastic averaging of the energy envelope (1-D in H)",
-           MODES, QUANTITIES, tuple(f for f in _ALL if f != "several wells"),
-           _averaging_solver, _averaging_options,
+           MODES, QUANTITIES, tuple(f for f in FEATURES if f != "several wells"),
+           _averaging_solver, _averaging_options, safe_sets=SAFE_SETS,
            solution_kinds=("averaging", "averaging_grid"), study="n_panel ladder",
            benchmark="averaging"),
-    Method("fem", "finite elements for the 2-D FPK on the strip", MODES, QUANTITIES, _ALL,
-           _fem_solver, _fem_options, solution_kinds=("fem",),
+    Method("fem", "finite elements for the 2-D FPK on the strip", MODES, QUANTITIES,
+           tuple(FEATURES), _fem_solver, _fem_options, solution_kinds=("fem",),
+           safe_sets=SAFE_SETS,
            study="degree and nx ladder", benchmark="fem"),
     Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts", MODES,
-           QUANTITIES, _ALL, _montecarlo_solver, _montecarlo_options, sampled=True,
+           QUANTITIES, tuple(FEATURES), _montecarlo_solver, _montecarlo_options,
+           sampled=True, safe_sets=SAFE_SETS,
            solution_kinds=("montecarlo",), study="target standard error ladder",
            benchmark="montecarlo"),
     Method("exact", "the Gibbs density exp(−(c/D1) H)/Z (r = 1, D2 = 0)", ("stationary",),
            ("energy", "x", "y", "joint", "moments", "impacts"),
-           ("walls", "several wells"), _exact_solver, solution_kinds=("exact",)),
+           ("walls", "several wells", "restitution laws"), _exact_solver,
+           solution_kinds=("exact",)),
 ):
     register(_m)
 
@@ -274,13 +295,15 @@ for _m in (
 def capability_table() -> str:
     """The Markdown table method × (modes, quantities, model features): ``fpk-vibro
     methods`` prints it and docs/guide/methods.md holds it (a test keeps them equal)."""
-    cols = list(MODES) + [q for q in QUANTITIES if q not in MODES] + list(FEATURES)
+    cols = (list(MODES) + [q for q in QUANTITIES if q not in MODES] + list(FEATURES)
+            + [f"leaves {k}" for k in SAFE_SETS[1:]])
     head = ["method", "sampled"] + cols
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for m in methods().values():
         cells = [f"`{m.name}`", "yes" if m.sampled else "no"]
         for c in cols:
-            have = c in m.modes or c in m.quantities or c in m.features
+            have = (c in m.modes or c in m.quantities or c in m.features
+                    or c.removeprefix("leaves ") in m.safe_sets)
             cells.append("yes" if have else "–")
         rows.append("| " + " | ".join(cells) + " |")
     return "\n".join(rows) + "\n"

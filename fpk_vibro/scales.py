@@ -50,8 +50,8 @@ def _impact_loss(system: VibroImpactSystem) -> float:
     the least dissipative wall: with c = 0 one inelastic wall beside an elastic one
     is enough for a stationary state (the model refuses c = 0 only when no wall
     loses energy), and its loss is halved, not lost, by the elastic one."""
-    walls = [w for _, w in system.walls]
-    return sum(1.0 - w.r * w.r for w in walls) / len(walls) if walls else 0.0
+    walls = [w for _, w in system.walls]      # (a law: its least r, the largest loss)
+    return sum(1.0 - w.r_bounds()[0] ** 2 for w in walls) / len(walls) if walls else 0.0
 
 
 def _omega_lin(system: VibroImpactSystem) -> float:

@@ -47,7 +47,8 @@ __all__ = ["Solution", "MOMENT_KEYS", "ESTIMATE_KEYS", "KIND_MODULES", "Rule", "
 #: The density methods and their arguments, in order: every definition of one of them
 #: in a subclass gets the one argument check (:func:`_checked`).
 _POINT_ARGS = {"pdf_energy": ("H",), "pdf_joint": ("x", "y"), "pdf_x": ("x",),
-               "pdf_y": ("y",), "impact_speed_pdf": ("wall", "u")}
+               "pdf_y": ("y",), "impact_speed_pdf": ("wall", "u"),
+               "impact_energy_pdf": ("wall", "e"), "inter_impact_pdf": ("t",)}
 
 
 def _checked(name: str, method):
@@ -159,6 +160,46 @@ class Solution(abc.ABC):
     def impact_speed_pdf(self, wall: str, u: np.ndarray) -> np.ndarray:
         """Density of the speed u ≥ 0 just before an impact on ``wall``."""
         raise NotImplementedError(f"{type(self).__name__} gives no impact-speed density")
+
+    # -- impact statistics beyond rates (issue 32) ------------------------------
+    def inter_impact_pdf(self, t: np.ndarray) -> np.ndarray:
+        """Density of the time between successive impacts (on any wall), at ``t`` ≥ 0."""
+        raise NotImplementedError(f"{type(self).__name__} gives no inter-impact time "
+                                  "density")
+
+    def mean_inter_impact_time(self) -> float:
+        """Mean time between successive impacts (any wall), computed by the method's own
+        route: the exact identity says it equals 1/(total impact rate)."""
+        raise NotImplementedError(f"{type(self).__name__} gives no inter-impact time")
+
+    def _impact_speed_reach(self, wall: str) -> float:
+        """A speed beyond which impacts on ``wall`` are negligible (from the energy
+        tail: u = sqrt(2 (H_tail − G(x_w))))."""
+        from . import scales
+        s = self.system
+        try:
+            H = scales.tail_energy(s)
+        except ValueError:
+            H = scales.potential_min(s) + 40.0 * scales.energy_scale(s)
+        xw = getattr(s, wall).position
+        return float(np.sqrt(2.0 * max(H - float(s.potential(xw)), 1e-12)))
+
+    def impact_energy_pdf(self, wall: str, e: np.ndarray) -> np.ndarray:
+        """Density of the energy one impact on ``wall`` dissipates, e = (1 − r(u)²) u²/2
+        (:func:`fpk_vibro.impact_energy.energy_density` from :meth:`impact_speed_pdf`
+        and the wall's law; zero at every e > 0 for an elastic wall)."""
+        from .impact_energy import energy_density
+        w = self.wall_named(wall)
+        return energy_density(w, lambda u: self.impact_speed_pdf(wall, u), e,
+                              u_max=self._impact_speed_reach(wall))
+
+    def mean_impact_energy(self, wall: str) -> float:
+        """Mean energy one impact on ``wall`` dissipates (the mean of
+        :meth:`impact_energy_pdf`; the identity: energy_rate / rate of :meth:`impacts`)."""
+        from .impact_energy import mean_energy
+        w = self.wall_named(wall)
+        return mean_energy(w, lambda u: self.impact_speed_pdf(wall, u),
+                           u_max=self._impact_speed_reach(wall))
 
     def to_xarray(self, grids: dict | None = None):
         """The densities on their grids, the moments and the provenance as an

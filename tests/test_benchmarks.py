@@ -17,7 +17,8 @@ ROOT = Path(__file__).resolve().parent.parent
 #: A column of each benchmark's table (its header line holds it).
 COLUMN = {"averaging": "median ms", "montecarlo": "kernel/floor", "fem": "L1 est",
           "fem-scale": "L1 err", "fem-transient": "max rel. error", "fem-doublewell": "median s",
-          "fem-first-passage": "converged", "fem-scenes": "flagged"}
+          "fem-first-passage": "converged", "fem-scenes": "flagged",
+          "fem-restitution": "table law s"}
 
 
 

@@ -32,6 +32,7 @@ from scipy import integrate, linalg
 from .._checks import InputError, invalid
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
                              parse_start, survival_at)
+from ..safe_sets import SafeSet, parse_safe_set
 from ..model import VibroImpactSystem, check_system
 from ..orbits import energy_floor, orbit_nodes
 from .coefficients import coefficients
@@ -40,7 +41,7 @@ from .energy_grid import energy_faces
 from .options import Options
 from .transient import averaged_operator
 
-__all__ = ["first_passage", "log10_mean_time", "model_error"]
+__all__ = ["first_passage", "energy_threshold", "log10_mean_time", "model_error"]
 
 #: Largest accepted eps ‖A‖ τ of the eigen-decomposition (else the exponential law).
 RESOLVABLE = 1e-3
@@ -86,16 +87,34 @@ def log10_mean_time(system: VibroImpactSystem, H_c: float, H0: float | None = No
     return float(np.interp(H0, u, ltau)) / math.log(10.0)
 
 
-def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
-                  times: Sequence[float] | None = None, n_grid: int = 4000,
-                  n_cells: int = 400) -> FirstPassage:
-    """τ(H0) and R(t | start) out of {H < energy} under stochastic averaging.
+def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
+                  displacement: Any = None, impact_speed: float | None = None,
+                  start: Any = (0.0, 0.0), times: Sequence[float] | None = None,
+                  n_grid: int = 4000, n_cells: int = 400) -> FirstPassage:
+    """τ(H0) and R(t | start) out of a safe set under stochastic averaging.
+
+    Averaging follows the energy only, so every safe set is mapped to an energy
+    threshold H_c (:func:`energy_threshold`; ``info["H_c"]``, ``info["mapped"]``): an
+    orbit of energy H reaches the displacement bound x_b within one period once H >
+    G(x_b), and impacts a wall faster than u_c once H > G(x_w) + u_c²/2.  The mapping
+    assumes the energy nearly constant over an orbit (the averaging assumption); it
+    errs by the time the orbit takes to reach the bound (at most a period) and by the
+    phase it forgets.
 
     Parameters
     ----------
     system : VibroImpactSystem
-    energy : float
-        The critical energy H_c.
+    energy : float, optional
+        The critical energy H_c: the safe set {H < H_c}.
+    displacement : float or (float, float), optional
+        b (|x| < b) or (x_lo, x_hi): H_c = the smallest G over the bounds inside the
+        strip.  The set must contain the bottom of the potential on the strip (x = 0,
+        or the wall nearest to it), which every orbit passes; else refused, naming the
+        engines that compute it.
+    impact_speed : float, optional
+        u_c: the first impact faster than u_c; H_c = min over walls of G(x_w) + u_c²/2.
+        Exactly one of ``energy``, ``displacement``, ``impact_speed``
+        (:func:`fpk_vibro.safe_sets.parse_safe_set`).
     start : (x0, y0), dict or "stationary"
         As in :func:`fpk_vibro.fem.first_passage`; a point enters through its
         energy H(x0, y0) only (averaging forgets the phase).
@@ -123,8 +142,14 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     """
     where = "averaging.first_passage"
     check_system(where, system)
-    H_c = check_energy(where, system, energy)
-    kind, value = parse_start(where, system, start, H_c)
+    if displacement is None and impact_speed is None and energy is not None:
+        H_c = check_energy(where, system, energy)
+        safe = SafeSet("energy", energy=H_c)
+    else:
+        safe = parse_safe_set(where, system, energy=energy, displacement=displacement,
+                              impact_speed=impact_speed)
+    H_c, mapped = energy_threshold(where, system, safe)
+    kind, value = parse_start(where, system, start, safe)
     if kind == "gaussian":
         x, y, w = _gauss_hermite(value)
         if not np.sum(w[system.energy(x, y) < H_c]) > 0.0:
@@ -142,7 +167,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
             f"{MAX_TAU:g} is returned); choose a lower energy", where=where, name="energy")
     tau = _Tau(u, np.exp(ltau), H_c, system)
     mean = float(_mean_from(kind, value, system, tau, sol, H_c))
-    info: dict[str, Any] = {"n_grid": n_grid, "n_cells": n_cells}
+    info: dict[str, Any] = {"n_grid": n_grid, "n_cells": n_cells, "H_c": H_c,
+                            "mapped": mapped}
     t_req = float(requested[-1]) if requested is not None else 0.0
     t_end = min(max(5.0 * mean, t_req), HORIZON * float(tau.values[0]))
     t_end = max(t_end, 5.0 * mean)
@@ -153,8 +179,40 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
             return np.exp(-np.asarray(t, float) / mean)
     R = np.clip(survival(T), 0.0, 1.0)
     T, R = merge_requested(T, R, requested, exact=survival)
-    return FirstPassage("averaging", system, H_c, (kind, value), mean, 0.0, T,
-                        np.clip(R, 0.0, 1.0), None, info, _mean_at=tau)
+    return FirstPassage("averaging", system, H_c if safe.kind == "energy" else None,
+                        (kind, value), mean, 0.0, T, np.clip(R, 0.0, 1.0), None, info,
+                        _mean_at=tau, safe_set=safe)
+
+
+def energy_threshold(where: str, system: VibroImpactSystem, safe: SafeSet
+                     ) -> tuple[float, str]:
+    """The energy H_c averaging uses for ``safe`` and the mapping in words
+    (:func:`first_passage`); one InputError where it does not apply."""
+    if safe.kind == "energy":
+        return float(safe.energy), f"H_c = {safe.energy:.6g} (given)"
+    if safe.kind == "impact_speed":
+        u_c = float(safe.speed)
+        Hs = [(float(system.potential(w.position)) + 0.5 * u_c * u_c, side)
+              for side, w in system.walls]
+        H_c, side = min(Hs)
+        return H_c, (f"H_c = G(x_w) + u_c²/2 = {H_c:.6g} ({side} wall, u_c = {u_c:g}): "
+                     "the first impact faster than u_c is the first at an energy above it")
+    lo, hi = system.x_bounds
+    bottom = 0.0 if lo <= 0.0 <= hi else (hi if hi < 0 else lo)
+    if not safe.x_lo < bottom < safe.x_hi and not (bottom in (lo, hi) and
+                                                   safe.x_lo <= bottom <= safe.x_hi):
+        from ..safe_sets import SUPPORTED_BY
+        others = [m for m in SUPPORTED_BY.get("displacement", ()) if m != "averaging"]
+        use = f"; use {', '.join(others)}" if others else ""
+        raise InputError(f"{where}: averaging maps a displacement set to an energy "
+                         f"threshold only when it contains x = {bottom:g}, which every "
+                         f"orbit passes; {safe.describe()} does not{use}", where=where,
+                         name="displacement")
+    bounds = [(float(system.potential(b)), b) for b in (safe.x_lo, safe.x_hi)
+              if math.isfinite(b)]
+    H_c, b = min(bounds)
+    return H_c, (f"H_c = G(x_b) = {H_c:.6g} at the bound x_b = {b:g}: the orbit of "
+                 "energy H reaches it within one period once H exceeds it")
 
 
 class _Tau:
@@ -245,7 +303,7 @@ def _start_masses(system, kind, value, sol, faces, H_c) -> np.ndarray:
 
 
 MODEL_ERROR_ASSUMES = (
-    "the difference to the finite-element first passage of the same system, energy and "
+    "the difference to the finite-element first passage of the same system, safe set and "
     "start (fem.first_passage at its default accuracy, or the given one) plus FE's own "
     "estimate; assumes FE resolves the system; reliability: the largest "
     "|R_averaging − R_FE| over the times both grids cover")
@@ -259,6 +317,25 @@ def _start_spec(start: tuple) -> Any:
     if kind == "gaussian":
         return {"mean": tuple(value["mean"]), "std": tuple(value["std"])}
     return tuple(value)
+
+
+def _set_spec(system: VibroImpactSystem, safe: SafeSet) -> dict[str, Any]:
+    """The keyword that gives back ``safe`` (a bound beyond a wall as the wall)."""
+    if safe.kind == "energy":
+        return {"energy": safe.energy}
+    if safe.kind == "impact_speed":
+        return {"impact_speed": safe.speed}
+    lo, hi = system.x_bounds
+    return {"displacement": (safe.x_lo if math.isfinite(safe.x_lo) else lo,
+                             safe.x_hi if math.isfinite(safe.x_hi) else hi)}
+
+
+def _same_set(a: SafeSet, b: SafeSet) -> bool:
+    """Two safe sets equal up to rounding of their numbers."""
+    if a.kind != b.kind:
+        return False
+    va, vb = np.atleast_1d(np.asarray(a.value, float)), np.atleast_1d(np.asarray(b.value, float))
+    return bool(np.all((va == vb) | np.isclose(va, vb, rtol=1e-12, atol=0.0)))
 
 
 def model_error(fp: FirstPassage, reference: FirstPassage | None = None) -> dict[str, Any]:
@@ -291,21 +368,23 @@ def model_error(fp: FirstPassage, reference: FirstPassage | None = None) -> dict
     t0 = time.perf_counter()
     out: dict[str, Any] = {"mean_time": math.inf, "reliability": math.inf,
                            "assumes": MODEL_ERROR_ASSUMES}
+    safe = fp.safe_set
     if reference is not None:
         if not isinstance(reference, FirstPassage) or reference.method != "fem" or \
-                not math.isclose(reference.energy, fp.energy, rel_tol=1e-12) or \
-                reference.start != fp.start:
-            got = (f"{reference.method} first passage, energy {reference.energy:g}, start "
-                   f"{reference.start[1]!r}") if isinstance(reference, FirstPassage) \
-                else type(reference).__name__
+                not _same_set(reference.safe_set, safe) or reference.start != fp.start:
+            got = (f"{reference.method} first passage out of "
+                   f"{reference.safe_set.describe()}, start {reference.start[1]!r}")\
+                if isinstance(reference, FirstPassage) else type(reference).__name__
             raise ValueError(f"{where}: error_estimate: reference must be the FE first "
-                             f"passage of energy {fp.energy:g} from {fp.start[1]!r}; got {got}")
+                             f"passage out of {safe.describe()} from {fp.start[1]!r}; "
+                             f"got {got}")
         ref, what = reference, "the given FE first passage"
     else:
         try:
-            ref = solve_reference("fem-first-passage", fp.system, energy=fp.energy,
+            ref = solve_reference("fem-first-passage", fp.system,
+                                  **_set_spec(fp.system, safe),
                                   start=_start_spec(fp.start))
-        except (InputError, ValueError, MemoryError) as exc:
+        except (InputError, ValueError, MemoryError, TypeError) as exc:
             out["reference"] = "none: fem.first_passage refused (" + \
                 " ".join(str(exc).split()) + ")"
             out["seconds"] = time.perf_counter() - t0

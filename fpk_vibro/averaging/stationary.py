@@ -278,6 +278,33 @@ class AveragedSolution(Solution):
         from .impacts import impact_speed_pdf
         return impact_speed_pdf(self, wall, u)
 
+    def inter_impact_pdf(self, t):
+        """Density of the time between successive impacts (any wall) at ``t`` ≥ 0.
+
+        Assumes the energy nearly constant over an orbit (weak damping and noise): an
+        impact at energy H is followed by the next one T(H)/n(H) later (n walls
+        reached; two legs of T/2 between two walls), weighted by the impact flux at H,
+        plus the excursions below the lowest wall energy that Kac's identity requires
+        (:mod:`fpk_vibro.averaging.inter_impact`; :meth:`inter_impact_estimate` says
+        how far to trust it).
+        """
+        from .inter_impact import inter_impact
+        return inter_impact(self).pdf(t)
+
+    def mean_inter_impact_time(self) -> float:
+        """Mean time between successive impacts, the mean of :meth:`inter_impact_pdf`:
+        P_impact/ν from the periodic gaps plus q τ_X from the excursions, 1/ν (ν the
+        total impact rate of :meth:`impacts`) by construction."""
+        from .inter_impact import inter_impact
+        return inter_impact(self).mean
+
+    def inter_impact_estimate(self, reference: Any = None) -> dict[str, Any]:
+        """How far to trust :meth:`inter_impact_pdf` (:func:`~fpk_vibro.averaging.
+        inter_impact.estimate`): ``mean`` (relative, from the FE impact rate),
+        ``excursion_share`` q, ``frozen_energy``, ``reference``, ``assumes``."""
+        from .inter_impact import estimate
+        return estimate(self, reference)
+
     def mean_x(self) -> float:
         """E[x] from the orbit averages of x: ∫ exp(−Φ) 2∫ x dx/|y| dH / Z.
 

@@ -42,6 +42,8 @@ BENCHMARKS: dict[str, Benchmark] = {
     "fem-first-passage": Benchmark("fem_first_passage", "accuracy and speed of "
                                                         "fem.first_passage by default"),
     "fem-scenes": Benchmark("fem_scenes", "the default stationary solve on random scenes"),
+    "fem-restitution": Benchmark("fem_restitution", "cost of a tabulated restitution law "
+                                 "against a constant r"),
 }
 
 

@@ -53,9 +53,11 @@ from .. import budget
 from ..budget import Cost
 from ..first_passage import (FirstPassage, check_energy, check_times, merge_requested,
                              parse_start, survival_at)
+from ..safe_sets import parse_safe_set
 from ..model import VibroImpactSystem, check_system
 from .options import PASSAGE_NX, Options, passage_cost
 from .passage_parts import RESOLVABLE, TauField, solve_part, survival, unresolvable
+from .passage_sets import SetTauField, solve_set, unresolvable_set
 from .safe_set import WALL_POWER, safe_set_components, safe_set_mesh
 
 __all__ = ["first_passage", "safe_set_components", "safe_set_mesh", "RESOLVABLE",
@@ -74,17 +76,28 @@ def estimate(system: VibroImpactSystem, nx: int, ny: int, degree: int, n_steps: 
     return passage_cost(system, nx, ny, degree, n_steps, parts)
 
 
-def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
+def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
+                  displacement: Any = None, impact_speed: float | None = None,
+                  start: Any = (0.0, 0.0),
                   times: Sequence[float] | None = None, nx: int | None = None,
                   ny: int | None = None, degree: int = 2, n_steps: int = 200,
                   rtol: float | None = None) -> FirstPassage:
-    """Mean first-passage time τ(x, y) and reliability R(t) out of {H < energy}.
+    """Mean first-passage time τ(x, y) and reliability R(t) out of a safe set:
+    {H < energy}, a displacement band, or no impact faster than a speed.
 
     Parameters
     ----------
     system : VibroImpactSystem
     energy : float
         The critical energy H_c (above min G on the strip).
+    displacement : float or (float, float)
+        Instead of ``energy``: the set |x| < b, or x_lo < x < x_hi
+        (:mod:`fpk_vibro.fem.passage_sets`: the strip cut there, absorbing where
+        paths leave it, y > 0 at x_hi and y < 0 at x_lo).
+    impact_speed : float
+        Instead of ``energy``: the time of the first impact faster than u_c (the
+        whole strip, its walls absorbing impacts faster than u_c and keeping their
+        restitution law for slower ones).  Exactly one of the three.
     start : (x0, y0), dict or "stationary"
         Where paths start (:func:`fpk_vibro.first_passage.parse_start`); default the
         equilibrium at rest.
@@ -135,18 +148,23 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     """
     where = "fem.first_passage"
     check_system(where, system)
-    H_c = check_energy(where, system, energy)
-    kind, value = parse_start(where, system, start, H_c)
+    safe = parse_safe_set(where, system, energy=energy, displacement=displacement,
+                          impact_speed=impact_speed)
+    H_c = check_energy(where, system, energy) if safe.kind == "energy" else None
+    kind, value = parse_start(where, system, start, safe if H_c is None else H_c)
     requested = check_times(where, times)
     opts, _ = Options.prepare(system, "first_passage", locals())
     nx = DEFAULT_NX if opts.nx is None else opts.nx
     ny = 2 * nx if opts.ny is None else opts.ny
     degree, n_steps, rtol = opts.degree, opts.n_steps, opts.rtol
-    parts = safe_set_components(system, H_c)
-    if not parts:
-        raise ValueError(f"{where}: the safe set H < {H_c:g} is empty on the strip")
-    if kind == "point":
-        parts = [p for p in parts if p[0] <= value[0] <= p[1]][:1]
+    if H_c is None:
+        parts = [safe]       # one rectangle of the strip (fem.passage_sets)
+    else:
+        parts = safe_set_components(system, H_c)
+        if not parts:
+            raise ValueError(f"{where}: the safe set H < {H_c:g} is empty on the strip")
+        if kind == "point":
+            parts = [p for p in parts if p[0] <= value[0] <= p[1]][:1]
     budget.enforce(estimate(system, nx, ny, degree, n_steps, len(parts)), where)
     t0 = time.perf_counter()
     coarser = _coarser_level(where, system, parts, H_c, nx, ny, degree, kind, value)
@@ -220,9 +238,13 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     estimate_ = {"mean_time": float(est_mean), "reliability": est_rel, "order": ORDER,
                  "coarser_reduction": COARSER_REDUCTION, "levels": levels,
                  "assumes": ASSUMES}
-    field = TauField(system, H_c, [(p["tau_h"], p["mesh"], p["part"][:2]) for p in solved])
+    if H_c is None:
+        field = SetTauField(system, safe, solved[0]["tau_h"])
+    else:
+        field = TauField(system, H_c, [(p["tau_h"], p["mesh"], p["part"][:2])
+                                       for p in solved])
     return FirstPassage("fem", system, H_c, (kind, value), fine["mean"], 0.0, T, R, None,
-                        info, _mean_at=field, _estimate=estimate_)
+                        info, _mean_at=field, _estimate=estimate_, safe_set=safe)
 
 
 #: Cells across x by default (:data:`fpk_vibro.fem.options.PASSAGE_NX`).
@@ -290,16 +312,21 @@ def _coarser_level(where, system, parts, H_c, nx, ny, degree, kind, value):
 
 
 def _level(where, system, parts, H_c, nx, ny, degree, kind, value) -> dict[str, Any]:
-    """τ on every part at one resolution (refusing an unresolvable τ)."""
-    solved = [solve_part(system, part, H_c, nx, ny, degree, kind, value) for part in parts]
+    """τ on every part at one resolution (refusing an unresolvable τ); ``H_c`` None:
+    the one part is a displacement or impact-speed :class:`SafeSet`."""
+    solved = [solve_part(system, part, H_c, nx, ny, degree, kind, value) if H_c is not None
+              else solve_set(system, part, nx, ny, degree, kind, value) for part in parts]
     solved = [p for p in solved if p["weight"] > 0]
     if not solved:
+        inside = f"H < {H_c:g}" if H_c is not None else parts[0].describe()
         raise ValueError(f"{where}: the start density has no mass inside the safe set "
-                         f"H < {H_c:g}")
+                         f"{inside}")
     total = sum(p["weight"] for p in solved)
     for p in solved:
         p["weight"] /= total
         if p["error"] > RESOLVABLE or not (0 < p["mean"] < math.inf):
+            if H_c is None:
+                raise unresolvable_set(where, parts[0], p)
             raise unresolvable(where, system, H_c, kind, value, p)
     return {"parts": solved, "nx": nx, "ny": ny,
             "mean": float(sum(p["weight"] * p["mean"] for p in solved)),

@@ -10,7 +10,7 @@ Default truncation (used when ``y_max`` is not given): the energy H_t above whic
 the tail bound of :mod:`fpk_vibro.scales` holds less than ``TAIL_MASS`` (1e-8):
 ``y_max = sqrt(2 (H_t − min G))`` and, on a side without barrier, the strip ends
 where G = H_t.  For r = 1, D2 = 0 this is the exact Gibbs tail; r < 1 only removes
-energy, so it is conservative there.  ``c = 0`` (all dissipation from impacts)
+energy, so it is conservative there; a law r(u) is bounded by its largest r.  ``c = 0`` (all dissipation from impacts)
 has no such bound: ``y_max`` must then be given.
 
 A wall beyond that cut (|x_w| past the reach of H_t, where the density holds less
@@ -33,7 +33,9 @@ import numpy as np
 import skfem
 from .. import scales
 from ..model import VibroImpactSystem
+from ..restitution import Restitution
 from ..scales import TAIL_MASS
+from .rebound import is_elastic, preimage, rebound
 
 __all__ = ["StripEnd", "Domain", "domain", "default_y_max", "axis_nodes", "wall_nodes",
            "structured_mesh", "load_mesh", "wall_restitutions", "beyond_support",
@@ -43,14 +45,30 @@ __all__ = ["StripEnd", "Domain", "domain", "default_y_max", "axis_nodes", "wall_
 @dataclass(frozen=True)
 class StripEnd:
     """An end x = ``x`` of the strip with restitution ``r``; ``side`` is +1 (right)
-    or −1 (left): a wall of the system (:class:`fpk_vibro.model.Wall`, its ``r``) or
-    the elastic end (r = 1) of a truncated side.
+    or −1 (left): a wall of the system (:class:`fpk_vibro.model.Wall`, its ``r``: a
+    number or a law r(u) of the impact speed) or the elastic end (r = 1) of a
+    truncated side.
 
-    Its outflow half is ``side · y > 0`` (docs/theory.md, §Impact coupling).
+    Its outflow half is ``side · y > 0`` (docs/theory.md, §Impact coupling); an
+    outgoing speed u re-enters at speed :meth:`rebound` φ(u) = u r(u).
     """
     x: float
-    r: float
+    r: "float | Restitution"
     side: int
+
+    @property
+    def elastic(self) -> bool:
+        """True when r ≡ 1 (no impact loses energy)."""
+        return is_elastic(self.r)
+
+    def rebound(self, u: np.ndarray) -> np.ndarray:
+        """φ(u) = u r(u), the speed after an impact at speed ``u`` ≥ 0."""
+        return rebound(self.r, u)
+
+    def preimage(self, w: np.ndarray, u_max: float) -> np.ndarray:
+        """The impact speeds u ≤ ``u_max`` with φ(u) = ``w``
+        (:func:`fpk_vibro.fem.rebound.preimage`)."""
+        return preimage(self.r, w, u_max)
 
 
 @dataclass(frozen=True)
@@ -87,7 +105,7 @@ def _domain(system: VibroImpactSystem, y_max: float | None) -> Domain:
     lo, hi = system.x_bounds
     (rl, rr), beyond = wall_restitutions(system), []
     try:
-        H_t: float | None = scales.tail_energy(system, TAIL_MASS)
+        H_t: float | None = scales.tail_energy(_least_loss(system), TAIL_MASS)
     except ValueError:          # c = 0, or a tail that does not decay: y_max's energy
         if y_max is None:
             raise
@@ -104,6 +122,14 @@ def _domain(system: VibroImpactSystem, y_max: float | None) -> Domain:
             y_max = math.sqrt(2.0 * (H_t - scales.potential_min(system)))
     return Domain(lo, hi, float(y_max), (StripEnd(lo, rl, -1), StripEnd(hi, rr, +1)),
                   tuple(beyond))
+
+
+def _least_loss(system: VibroImpactSystem) -> VibroImpactSystem:
+    """``system`` with each wall's law r(u) replaced by its largest r: the least loss
+    per impact, so a tail bound of it bounds the law's tail too (the strip can only
+    be wider)."""
+    laws = {f"{side}.r": w.r_bounds()[1] for side, w in system.walls if w.law is not None}
+    return system.replace(**laws) if laws else system
 
 
 def _beyond_note(wall, side: str, cut: float, X: float) -> list[str]:
@@ -153,9 +179,18 @@ def thermal_velocity(system: VibroImpactSystem) -> float:
         return v
 
 
-def wall_restitutions(system: VibroImpactSystem) -> tuple[float, float]:
-    """(r_L, r_R) of the strip's ends: each wall's own r, 1 on a truncated side."""
-    return tuple(1.0 if w is None else w.r for w in (system.left, system.right))
+def wall_restitutions(system: VibroImpactSystem) -> tuple:
+    """(r_L, r_R) of the strip's ends: each wall's own r (a number, or its law r(u);
+    a law constant in u as that number, so that it is the number bit for bit), 1 on a
+    truncated side."""
+    def one(w):
+        if w is None:
+            return 1.0
+        law = getattr(w, "law", None)
+        if law is None:
+            return w.r
+        return float(law.constant) if law.constant is not None else law
+    return tuple(one(w) for w in (system.left, system.right))
 
 
 def axis_nodes(lo: float, hi: float, n: int, grading: float = 0.0,
@@ -181,7 +216,8 @@ def axis_nodes(lo: float, hi: float, n: int, grading: float = 0.0,
 
 
 def wall_nodes(dom: Domain, n: int, power: float = 1.0) -> np.ndarray:
-    """``n + 1`` x-nodes on [x0, x1], clustered toward each wall with r < 1.
+    """``n + 1`` x-nodes on [x0, x1], clustered toward each inelastic wall (r < 1, or a law
+    r(u) not ≡ 1).
 
     Near such a wall the node spacing grows like the distance to it raised to
     1 − 1/``power`` (x_w − x ∝ s^power in the uniform parameter s; ``power`` = 1 is
@@ -192,7 +228,7 @@ def wall_nodes(dom: Domain, n: int, power: float = 1.0) -> np.ndarray:
     and rtol).
     """
     s = np.linspace(0.0, 1.0, n + 1)
-    left, right = (w.r < 1.0 and power != 1.0 for w in dom.walls)
+    left, right = (not w.elastic and power != 1.0 for w in dom.walls)
     if left and right:
         xi = 2.0 * s - 1.0
         u = 0.5 + 0.5 * np.sign(xi) * (1.0 - (1.0 - np.abs(xi)) ** power)

@@ -18,8 +18,9 @@ source* (a generator block):
   (D/h) m_i^x [B(−P) p_lo − B(P) p_hi], P = −c y_face h / D, B(z) = z/(eᶻ−1) > 0
   (exact for the 1-D Ornstein–Uhlenbeck balance at any cell Péclet number);
 - walls (B± of docs/theory.md, §Impact coupling): outflow |y_k| m_k^y p at the wall
-  node, re-injected over the image −r·[dual cell of k] and shared by overlap
-  (:func:`wall_injection`); r = 0 puts it at y = 0.  Mass conservative for every r.
+  node, re-injected over the image −r·[dual cell of k] (a law: −φ(dual cell), φ(u) =
+  u r(u)) and shared by overlap (:func:`wall_injection`); r = 0 puts it at y = 0.  Mass
+  conservative for every r and law.
 
 With g ≡ 1 this is first order ("first-order").  Separating the Hamiltonian
 drift from the dissipative part matters: putting all of −(c y + G) into the SG
@@ -31,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+
+from ..restitution import Restitution  # noqa: F401  (annotations)
 
 __all__ = ["bernoulli", "dual_weights", "wall_injection", "positive_generator"]
 
@@ -56,7 +59,7 @@ def dual_weights(nodes: np.ndarray) -> np.ndarray:
     return m
 
 
-def wall_injection(ynodes: np.ndarray, r: float, side: int
+def wall_injection(ynodes: np.ndarray, r: "float | Restitution", side: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Conservative re-injection of the wall outflow (B±; docs/theory.md, §Impact coupling),
     lumped.
@@ -64,7 +67,8 @@ def wall_injection(ynodes: np.ndarray, r: float, side: int
     The outflow node k (``side · y_k > 0``) owns the dual cell [lo_k, hi_k]; its
     outflow re-enters over the image −r·[lo_k, hi_k] (width r·(hi_k − lo_k): the
     1/r² jump of the impact condition in integrated form), shared among the dual cells j in
-    proportion to the overlap.  For r = 0 (or a degenerate image) all of it goes
+    proportion to the overlap.  A law r(u) (``r`` a :class:`~fpk_vibro.Restitution`):
+    the image −φ([lo_k, hi_k]), φ(u) = u r(u) increasing.  For r = 0 (or a degenerate image) all of it goes
     to the node whose dual cell contains y = 0.
 
     Returns
@@ -79,8 +83,12 @@ def wall_injection(ynodes: np.ndarray, r: float, side: int
     lo = np.concatenate([[yn[0]], yf])
     hi = np.concatenate([yf, [yn[-1]]])
     out = np.nonzero(side * yn > 0)[0]
-    a = np.minimum(-r * lo[out], -r * hi[out])
-    b = np.maximum(-r * lo[out], -r * hi[out])
+    if isinstance(r, (int, float)):
+        a = np.minimum(-r * lo[out], -r * hi[out])
+        b = np.maximum(-r * lo[out], -r * hi[out])
+    else:       # a law: the image of [lo, hi] under v ↦ −sign(v) φ(|v|), φ increasing
+        ends = -side * r.rebound(np.maximum(side * np.stack([lo[out], hi[out]]), 0.0))
+        a, b = ends.min(axis=0), ends.max(axis=0)
     j0 = np.clip(np.searchsorted(hi, a, side="right"), 0, ny - 1)
     j1 = np.clip(np.searchsorted(lo, b, side="left") - 1, j0, ny - 1)
     cnt = j1 - j0 + 1

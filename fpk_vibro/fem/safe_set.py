@@ -91,7 +91,7 @@ def _powers(part) -> tuple[float, float]:
     """The grading power of each end of a part (x − x_end ∝ s^power near it): a
     turning point :data:`TURNING_POWER`, a wall with r < 1 :data:`WALL_POWER`, an
     elastic wall 1."""
-    return tuple(TURNING_POWER if w is None else WALL_POWER if w.r < 1.0 else 1.0
+    return tuple(TURNING_POWER if w is None else WALL_POWER if not w.elastic else 1.0
                  for w in part[2:4])
 
 

@@ -342,6 +342,29 @@ class FEMSolution(Solution):
         from .impacts import impact_speed_pdf
         return impact_speed_pdf(self, wall, u)
 
+    def _inter_impact(self):
+        if getattr(self, "_inter_impact_cache", None) is None:
+            from .inter_impact import inter_impact
+            self._inter_impact_cache = inter_impact(self)
+        return self._inter_impact_cache
+
+    def inter_impact_pdf(self, t):
+        """Density of the time between successive impacts (any wall) at ``t`` ≥ 0: the
+        first passage to the walls, walls absorbing, from the stationary post-impact
+        flux (:mod:`fpk_vibro.fem.inter_impact`; solved on first use, then kept)."""
+        return self._inter_impact().pdf(t)
+
+    def mean_inter_impact_time(self) -> float:
+        """Mean time between successive impacts from the walls-absorbing backward
+        equation (:mod:`fpk_vibro.fem.inter_impact`); it equals 1/(total rate of
+        :meth:`impacts`) (Kac), on the Galerkin density to round-off."""
+        return self._inter_impact().mean
+
+    def inter_impact_pairs(self) -> dict[str, dict[str, float]]:
+        """Per wall pair ``"left->right"`` ...: the probability that an impact on the
+        first wall is followed by one on the second, and the mean time between them."""
+        return {k: dict(v) for k, v in self._inter_impact().pairs.items()}
+
     def energy_split(self, level: float, *, positive: bool = False) -> tuple[float, float]:
         """(∫ over {H > level}, ∫ over {H ≤ level}) of p_h on the mesh.
 

@@ -3,7 +3,7 @@
 Model (docs/theory.md, §Model; the paper's Eq. 1 in Itô form)::
 
     dx = y dt,   dy = −(c y + a x + b x³) dt + sqrt(2 D1 + 2 D2 x²) dW,
-    y⁺ = −r_L y⁻  at x = x_L,   y⁺ = −r_R y⁻  at x = x_R,
+    y⁺ = −r_L(u) y⁻  at x = x_L,   y⁺ = −r_R(u) y⁻  at x = x_R,   u = |y⁻|,
 
 on the strip x_L ≤ x ≤ x_R; either wall may be absent, and both may stand on one
 side of the equilibrium (the symmetric shorthand: walls at ±Δ with one r).
@@ -43,8 +43,10 @@ loop stops on the wall when it ends there.
 
 Each impact is counted for its wall with its speed u = |y_imp|: per wall the
 result gives the impact rate (impacts per unit time per path), the mean and
-mean-square impact speed and the energy removed per unit time,
-½ (1 − r_w²) E[u²] × rate, each with a standard error between batches
+mean-square impact speed and the energy removed per unit time and per impact, the
+sum of the actual losses ½ (1 − r_w(u)²) u² (a restitution law r(u) of the impact
+speed, :mod:`fpk_vibro.restitution`, is applied at each located impact), each with
+a standard error between batches
 (:meth:`MonteCarloSolution.impacts`).  For r = 1 and D2 = 0 (Gibbs density
 p ∝ exp(−c H/D1), velocity N(0, D1/c) independent of x) the rate at a wall is
 the flux p_X(x_w) E[y⁺] = p_X(x_w) sqrt(D1/c)/sqrt(2π), the mean impact speed
@@ -78,11 +80,22 @@ from the spread between independent batches of paths.
 Compute only what is asked: no impact test without walls, no parametric term
 when D2 = 0, only requested histograms are accumulated.
 
+Asked for ("impact_energy", "inter_impact"), the energy each impact removes is
+histogrammed per wall, and the time between successive impacts of a path (any wall;
+each path's last impact is tracked from the burn-in on, so that every sampled impact
+carries the complete gap before it: the gaps of the stationary impact process, with
+no length bias and no censoring by the window), with its mean and per wall pair:
+:meth:`MonteCarloSolution.inter_impact`; the identity mean = 1/(total impact rate)
+holds within the standard errors (tested).
+
 First passage
 -------------
-:func:`first_passage` runs paths from a point, a Gaussian or the stationary density
-(each conditioned on the safe set H < H_c) with this same step until H first
-reaches H_c, detecting crossings between step ends by a Brownian bridge of the
+:func:`first_passage` leaves {H < H_c} (``energy``), {x_lo < x < x_hi}
+(``displacement``: the crossing located exactly on the scheme's path, linear in
+each half step) or the strip at the first impact faster than u_c
+(``impact_speed``).  For the energy set it runs paths from a point, a Gaussian or
+the stationary density (each conditioned on the safe set) with this same step
+until H first reaches H_c, detecting crossings between step ends by a Brownian bridge of the
 velocity against the band |y| < sqrt(2 (H_c − G(x))); it returns the mean time ±
 its standard error, quantiles and the empirical reliability R(t) with a 95 %
 band (:mod:`._first_passage` has the measured bias against dt and the handling

@@ -25,11 +25,13 @@ TransientRun = TransientResult
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
                 hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
-                frac=None, threads=None, walls=None):
+                frac=None, threads=None, walls=None, law=None, extra=None, last=None):
     """Advance in chunks of ~CHUNK_PATH_STEPS path-steps; returns steps done.
 
     ``stop()`` (checked after every chunk) ends the loop early when True;
-    ``frac(done)`` overrides the completed fraction shown by the progress line.
+    ``frac(done)`` overrides the completed fraction shown by the progress line;
+    ``law``, ``extra``, ``last``: as :func:`._kernel.advance` takes them (``law`` is
+    needed for a wall whose r depends on the impact speed).
     """
     chunk = max(1, S.CHUNK_PATH_STEPS // max(n_paths, 1))
     if sample_every > 0:
@@ -38,7 +40,8 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
     while done < n_steps:
         n = min(chunk, n_steps - done)
         K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
-                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu)
+                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu, law,
+                  extra, last, hist.he, hist.hg)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -46,6 +49,16 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
         if stop is not None and stop():
             break
     return done
+
+
+def _gap_range(extra: np.ndarray, t_burn: float) -> float:
+    """The default range of the inter-impact time histogram: 1.5 × the longest gap of
+    the burn-in, at least 10 × its mean gap (the burn-in length without gaps)."""
+    n = extra[:, :, [K.X_GL, K.X_GR]].sum()
+    if n == 0:
+        return max(float(t_burn), 1e-12)
+    mean = extra[:, :, [K.X_TL, K.X_TR]].sum() / n
+    return max(1.5 * float(extra[:, :, K.X_GM].max()), 10.0 * float(mean), 1e-12)
 
 
 def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | None = None,
@@ -92,12 +105,18 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     seed : int, SeedSequence or None
         Same seed → bit-identical result whatever the number of threads.  None
         draws fresh entropy (recorded in ``solution.seed_entropy``).
-    quantities : sequence of {"energy", "x", "y", "joint", "impacts"}
-        Histograms to accumulate (moments are always accumulated); default the four
-        of the state.  "impacts" (only when asked; needs a wall) counts the speed
-        just before every impact in a histogram per wall:
-        :meth:`~MonteCarloSolution.impact_speed_histogram`,
-        :meth:`~MonteCarloSolution.impact_speed_pdf`.
+    quantities : sequence of {"energy", "x", "y", "joint", "impacts", "impact_energy", "inter_impact"}
+        Histograms to accumulate (moments and per-wall impact statistics are always
+        accumulated); default the four of the state.  Only when asked (each needs a
+        wall): "impacts" counts the speed just before every impact in a histogram per
+        wall (:meth:`~MonteCarloSolution.impact_speed_histogram`,
+        :meth:`~MonteCarloSolution.impact_speed_pdf`); "impact_energy" the energy
+        each impact removes, ½ (1 − r(u)²) u², per wall
+        (:meth:`~MonteCarloSolution.impact_energy_pdf`); "inter_impact" the time
+        between successive impacts of a path, any wall
+        (:meth:`~MonteCarloSolution.inter_impact_pdf`,
+        :meth:`~MonteCarloSolution.mean_inter_impact_time`, per wall pair in
+        :meth:`~MonteCarloSolution.inter_impact`).
     bins : int or dict, default 100
         n → n bins for H, x, y and n//2 × n//2 for the joint histogram; or a dict
         ``{quantity: count or equally spaced edges}`` (joint: a pair; impacts: edges
@@ -154,26 +173,35 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     xs = np.full(n_paths, S.initial_x(system))
     ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
     p, ip = S.step_params(system, dt, max_impacts)
+    law = S.wall_laws(system)
     mom = np.zeros((n_batches, K.NM))
     imp = np.zeros((n_batches, 2))
     wimp = np.zeros((n_batches, 2, K.NW))
+    extra = np.zeros((n_batches, 2, K.NX))
+    # each path's last impact (time, wall), tracked from the burn-in on: every impact
+    # sampled then has the gap before it (:mod:`._summary`)
+    last = np.tile([-np.inf, 0.0], (n_paths, 1)) if "inter_impact" in quantities \
+        else None
     xext = np.tile([np.inf, -np.inf], (n_batches, 1))
     none = S.Histograms(system, (), bins, n_batches, 1.0)
     prog = S.Progress(progress, "stationary")
     n_burn = math.ceil(t_burn / dt - 1e-9)
     try:
         _run_chunks(xs, ys, rng, starts, n_burn, 0, 0, p, ip, mom, imp, xext, none,
-                    n_paths, prog, "burn-in", (0.0, 0.1), threads=threads)
+                    n_paths, prog, "burn-in", (0.0, 0.1), threads=threads, law=law,
+                    extra=extra, last=last)
     except KeyboardInterrupt:
         prog.close("(interrupted during burn-in: nothing sampled)")
         raise
     H = system.energy(xs, ys)
     gmin = S.potential_min(system)
     H_max = gmin + max(1.5 * (H.max() - gmin), 10.0 * (H.mean() - gmin))
-    hist = S.Histograms(system, quantities, bins, n_batches, H_max)
+    hist = S.Histograms(system, quantities, bins, n_batches, H_max,
+                        _gap_range(extra, t_burn))
     p = hist.with_bins(p)
     imp[:] = 0.0
     wimp[:] = 0.0
+    extra[:] = 0.0
     adaptive = t_sample is None
     n_samp = math.ceil((max_t_sample if adaptive else t_sample) / dt - 1e-9)
     n_min = math.ceil(1.0 / (lam * dt)) if adaptive else n_samp
@@ -199,7 +227,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     try:
         _run_chunks(xs, ys, rng, starts, n_samp, 0, sample_every, p, ip, mom, imp, xext,
                     hist, n_paths, prog, "sampling", (0.1, 1.0), stop=reached,
-                    frac=fraction, threads=threads, walls=wimp)
+                    frac=fraction, threads=threads, walls=wimp, law=law, extra=extra,
+                    last=last)
     except KeyboardInterrupt:
         partial = True
         interruption_note("\n[montecarlo] interrupted: returning the samples taken so far "
@@ -214,7 +243,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                 sample_every=sample_every, quantities=list(quantities),
                 mode=system.barriers, target_rse=target_rse if adaptive else None,
                 spawn_key=list(ss.spawn_key))
-    sol = _reduce(system, hist, mom, imp, xext, dt, meta, wimp)
+    sol = _reduce(system, hist, mom, imp, xext, dt, meta, wimp, extra)
     sol._progress = progress           # the estimate's second run shows it the same way
     return sol
 
@@ -244,7 +273,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     dt : float, optional
         Largest time step; default as in :func:`stationary`.
     seed, quantities, n_batches, max_impacts, progress, threads
-        As in :func:`stationary` ("impacts" excepted: stationary only).
+        As in :func:`stationary` ("impacts", "impact_energy" and "inter_impact"
+        excepted: stationary only).
     bins : int or dict, default 60
         As in :func:`stationary`; default ranges follow the ensemble at each time
         (H up to its largest value, so nothing overflows).
@@ -279,6 +309,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     xs, ys = init.sample(n_paths, gen)
     xs, ys = np.ascontiguousarray(xs, dtype=float), np.ascontiguousarray(ys, dtype=float)
     none = S.Histograms(system, (), bins, n_batches, 1.0)
+    law = S.wall_laws(system)
     gmin = S.potential_min(system)
     prog = S.Progress(progress, "transient")
     out = TransientRun()
@@ -293,11 +324,13 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             p, ip = S.step_params(system, h, max_impacts)
             imp = np.zeros((n_batches, 2))
             wimp = np.zeros((n_batches, 2, K.NW))
+            extra = np.zeros((n_batches, 2, K.NX))
             mom = np.zeros((n_batches, K.NM))
             xext = np.tile([np.inf, -np.inf], (n_batches, 1))
             frac = (t_now / tarr[-1], t / tarr[-1]) if tarr[-1] > 0 else (0.0, 1.0)
             _run_chunks(xs, ys, rng, starts, n, 0, 0, p, ip, mom, imp, xext, none,
-                        n_paths, prog, f"t={t:g}", frac, threads=threads, walls=wimp)
+                        n_paths, prog, f"t={t:g}", frac, threads=threads, walls=wimp,
+                        law=law, extra=extra)
             t_now = float(t)
             H = system.energy(xs, ys)
             H_max = float(H.max())
@@ -310,7 +343,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
                         time=t_now, seed_entropy=ss.entropy, partial=False,
                         sample_every=0, quantities=list(quantities), mode=system.barriers,
                         initial=init.describe(), spawn_key=list(ss.spawn_key))
-            out.append(_reduce(system, hist, mom, imp, xext, h, meta, wimp))
+            out.append(_reduce(system, hist, mom, imp, xext, h, meta, wimp, extra))
             steps.append((tau, h))
     except KeyboardInterrupt:
         out.partial = True

@@ -57,7 +57,8 @@ import numpy as np
 from scipy import stats
 
 from .. import _checks
-from ..first_passage import FirstPassage, check_energy, check_times, parse_start
+from ..first_passage import FirstPassage, check_times, parse_start
+from ..safe_sets import SafeSet, parse_safe_set
 from ..initial import parse_initial
 from ..model import VibroImpactSystem, check_system
 from . import _fp_kernel as FK
@@ -82,34 +83,43 @@ STATIONARY_BURN = 9.0
 MIN_ACCEPT = 1e-3
 
 
-def _check_args(system, energy, start, times, values: dict[str, Any]) -> dict[str, Any]:
+def _check_args(system, safe, start, times, values: dict[str, Any]) -> dict[str, Any]:
     """Every argument checked (one-line InputError naming it), defaults filled in: the
     numerical keywords by the declared options (:class:`.options.Options`, mode
-    "first_passage", with the budget)."""
+    "first_passage", with the budget).  ``safe``: the keywords energy, displacement,
+    impact_speed."""
     from .options import Options
     check_system(WHERE, system)
-    H_c = check_energy(WHERE, system, energy)
-    kind, value = parse_start(WHERE, system, start, H_c)
+    safe = parse_safe_set(WHERE, system, **safe)
+    kind, value = parse_start(WHERE, system, start, safe)
     requested = check_times(WHERE, times)
+    values = {k: v for k, v in values.items()
+              if k not in ("energy", "displacement", "impact_speed")}
     opts, _ = Options.prepare(system, "first_passage", values)
-    return {"H_c": H_c, "kind": kind, "value": value, "n_paths": opts.n_paths,
+    return {"safe": safe, "kind": kind, "value": value, "n_paths": opts.n_paths,
             "dt": opts.resolved(system, "first_passage")["dt"], "t_max": opts.t_max,
             "seed": opts.seed, "times": requested, "threads": opts.threads,
             "progress": opts.progress, "bridge": opts.bridge}
 
 
-def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0, 0.0),
-                  n_paths: int = 4096, dt: float | None = None, t_max: float | None = None,
+def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
+                  displacement: Any = None, impact_speed: float | None = None,
+                  start: Any = (0.0, 0.0), n_paths: int = 4096, dt: float | None = None, t_max: float | None = None,
                   seed: int | np.random.SeedSequence | None = None,
                   times: Sequence[float] | None = None, threads: int | None = None,
                   progress: bool | None = None, bridge: bool = True) -> FirstPassage:
-    """Mean first-passage time and reliability out of {H < energy} by simulation.
+    """Mean first-passage time and reliability out of a safe set by simulation.
 
     Parameters
     ----------
     system : VibroImpactSystem
-    energy : float
-        The critical energy H_c (above min G on the strip).
+    energy, displacement, impact_speed
+        The safe set, exactly one of them (:func:`fpk_vibro.safe_sets.parse_safe_set`):
+        ``energy=H_c`` (above min G on the strip): {H < H_c}; ``displacement=b``
+        (|x| < b) or ``(x_lo, x_hi)``: a path leaves when x reaches a bound (a bound
+        at or beyond a wall is never reached), located exactly on the scheme's path,
+        which is linear within each half step; ``impact_speed=u_c``: a path leaves at
+        its first impact faster than u_c (timed at the middle of its step).
     start : (x0, y0), dict or "stationary"
         A point of the safe set (default the equilibrium at rest), a Gaussian
         ``{"mean": (x0, y0), "std": (sx, sy)}`` (x truncated to the strip, samples
@@ -178,9 +188,10 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
     >>> 70 < fp.mean < 90
     True
     """
-    a = _check_args(system, energy, start, times, locals())
+    a = _check_args(system, dict(energy=energy, displacement=displacement,
+                                 impact_speed=impact_speed), start, times, locals())
     t0 = time.perf_counter()
-    H_c, n, dt = a["H_c"], a["n_paths"], a["dt"]
+    safe, n, dt = a["safe"], a["n_paths"], a["dt"]
     ss = S.seed_sequence(a["seed"])
     nb = min(N_BLOCKS, n)
     kids = ss.spawn(nb + 2)
@@ -194,13 +205,13 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
         if a["kind"] == "point":
             xs, ys = np.full(n, a["value"][0]), np.full(n, a["value"][1])
         elif a["kind"] == "gaussian":
-            xs, ys = _gaussian_starts(system, a["value"], H_c, n,
+            xs, ys = _gaussian_starts(system, a["value"], safe, n,
                                       np.random.default_rng(kids[nb]))
         else:
             xs, ys, info["stationary_start"] = _stationary_starts(
-                system, H_c, n, dt, kids[nb + 1], a["threads"], prog)
+                system, safe, n, dt, kids[nb + 1], a["threads"], prog)
         T, status, counts, rounds, kmax = simulate(
-            system, H_c, xs, ys, dt, rng, kmax, k_final, a["threads"], a["bridge"], prog)
+            system, safe, xs, ys, dt, rng, kmax, k_final, a["threads"], a["bridge"], prog)
     except KeyboardInterrupt:
         prog.close("(interrupted)")
         raise
@@ -215,14 +226,16 @@ def first_passage(system: VibroImpactSystem, *, energy: float, start: Any = (0.0
                 n_censored=int(censored.sum()), censored=float(censored.mean()),
                 path_steps=float(counts[:, 0].sum()),
                 exits_by_bridge=float(counts[:, 2].sum() / max(counts[:, 1:].sum(), 1.0)),
-                crossing="step ends + Brownian bridge" if a["bridge"] else "step ends",
+                crossing=("step ends + Brownian bridge" if a["bridge"] else "step ends")
+                if safe.kind == "energy" else "located on the path" if
+                safe.kind == "displacement" else "at impacts",
                 band="95 % Dvoretzky-Kiefer-Wolfowitz (simultaneous)",
                 seed_entropy=ss.entropy, n_blocks=nb)
-    return _summarise(system, H_c, (a["kind"], a["value"]), np.where(censored, horizon, T),
+    return _summarise(system, safe, (a["kind"], a["value"]), np.where(censored, horizon, T),
                       censored, horizon, a["times"], info, t0)
 
 
-def simulate(system: VibroImpactSystem, H_c: float, xs: np.ndarray, ys: np.ndarray,
+def simulate(system: VibroImpactSystem, H_c: "float | SafeSet", xs: np.ndarray, ys: np.ndarray,
              dt: float, rng: np.ndarray, kmax: int, k_final: int, threads: int | None = None,
              bridge: bool = True, prog: S.Progress | None = None, max_impacts: int = 64
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
@@ -232,8 +245,14 @@ def simulate(system: VibroImpactSystem, H_c: float, xs: np.ndarray, ys: np.ndarr
     horizon ``kmax`` steps, then (if paths survive and ``kmax < k_final``) ×GROWTH,
     continuing the survivors.  Returns (exit times, status per path, per-block
     counts [path-steps, exits at step ends, exits by the bridge], rounds, final
-    horizon in steps).
+    horizon in steps).  ``H_c``: the critical energy or any :class:`SafeSet`.
     """
+    safe = H_c if isinstance(H_c, SafeSet) else SafeSet("energy", energy=float(H_c))
+    kind = {"energy": FK.ENERGY, "displacement": FK.DISPLACEMENT,
+            "impact_speed": FK.IMPACT_SPEED}[safe.kind]
+    hc = float(safe.energy) if safe.kind == "energy" else math.inf
+    uc = float(safe.speed) if safe.kind == "impact_speed" else math.inf
+    law = S.wall_laws(system)
     n, nb = xs.size, rng.shape[0]
     p, ip = S.step_params(system, dt, max_impacts)
     home = S.block_starts(n, nb)
@@ -250,8 +269,9 @@ def simulate(system: VibroImpactSystem, H_c: float, xs: np.ndarray, ys: np.ndarr
         for b0 in range(0, nb, wave):
             run_blocks(FK._fp_block, min(wave, nb - b0),
                        (b0, order, starts, xs, ys, ks, T, status, rng, p, ip,
-                        float(system.D1), float(system.D2), float(H_c),
-                        int(kmax), bool(bridge), counts), threads)
+                        float(system.D1), float(system.D2), hc,
+                        int(kmax), bool(bridge), counts, kind, float(safe.x_lo),
+                        float(safe.x_hi), uc, law), threads)
             if prog is not None:
                 prog.update(min(b0 + wave, nb) / nb, f"round {rounds}, horizon "
                             f"{kmax * dt:.4g}")
@@ -263,33 +283,34 @@ def simulate(system: VibroImpactSystem, H_c: float, xs: np.ndarray, ys: np.ndarr
         starts = np.searchsorted(order, home).astype(np.int64)
 
 
-def _gaussian_starts(system, spec, H_c, n, gen) -> tuple[np.ndarray, np.ndarray]:
-    """n samples of the Gaussian start conditioned on H < H_c (redrawn outside)."""
+def _gaussian_starts(system, spec, safe, n, gen) -> tuple[np.ndarray, np.ndarray]:
+    """n samples of the Gaussian start conditioned on the safe set (redrawn outside)."""
     init = parse_initial(spec, system)
     xs, ys, drawn = [], [], 0
     while sum(x.size for x in xs) < n:
         m = max(n, 1024)
         x, y = init.sample(m, gen)
-        keep = system.energy(x, y) < H_c
+        keep = safe.contains(system, x, y)
         xs.append(x[keep])
         ys.append(y[keep])
         drawn += m
         got = sum(x.size for x in xs)
         if got < MIN_ACCEPT * drawn or (got < n and drawn >= 1000 * n):
             raise _checks.invalid(WHERE, "start", f"a Gaussian with mass inside the safe "
-                                  f"set H < {H_c:g}", spec, f"{got} of {drawn} samples fall "
+                                  f"set {safe.describe()}", spec, f"{got} of {drawn} samples fall "
                                   "inside")
     return np.concatenate(xs)[:n], np.concatenate(ys)[:n]
 
 
-def _stationary_starts(system, H_c, n, dt, ss, threads, prog):
-    """n states of stationary paths with H < H_c: fresh paths burned in for
+def _stationary_starts(system, safe, n, dt, ss, threads, prog):
+    """n states of stationary paths inside the safe set: fresh paths burned in for
     STATIONARY_BURN relaxation times by the stationary kernel, those inside kept (more
     paths are burned in until n are found)."""
     from ._engine import _run_chunks
     t_burn = STATIONARY_BURN / S.relaxation_rate(system)
     n_steps = math.ceil(t_burn / dt - 1e-9)
     p, ip = S.step_params(system, dt, 64)
+    law = S.wall_laws(system)
     keep_x, keep_y, got, made, m = [], [], 0, 0, n
     for _ in range(20):
         nb = min(N_BLOCKS, m)
@@ -301,8 +322,8 @@ def _stationary_starts(system, H_c, n, dt, ss, threads, prog):
         none = S.Histograms(system, (), S.check_bins("bins", 2, WHERE), nb, 1.0)
         _run_chunks(xs, ys, rng, starts, n_steps, 0, 0, p, ip, np.zeros((nb, K.NM)),
                     np.zeros((nb, 2)), np.tile([np.inf, -np.inf], (nb, 1)), none, m,
-                    prog, "stationary start", (0.0, 0.0), threads=threads)
-        inside = system.energy(xs, ys) < H_c
+                    prog, "stationary start", (0.0, 0.0), threads=threads, law=law)
+        inside = safe.contains(system, xs, ys)
         keep_x.append(xs[inside])
         keep_y.append(ys[inside])
         got, made = got + int(inside.sum()), made + m
@@ -310,7 +331,7 @@ def _stationary_starts(system, H_c, n, dt, ss, threads, prog):
             break
         if got < MIN_ACCEPT * made:
             raise _checks.invalid(WHERE, "start", "a start with stationary mass in the safe "
-                                  f"set H < {H_c:g}", "stationary", f"only {got} of {made} "
+                                  f"set {safe.describe()}", "stationary", f"only {got} of {made} "
                                   "stationary states fall inside")
         m = min(math.ceil(1.2 * (n - got) * made / got) + 64, 16 * n)
     else:  # pragma: no cover - MIN_ACCEPT bounds the rounds
@@ -319,7 +340,7 @@ def _stationary_starts(system, H_c, n, dt, ss, threads, prog):
     return np.concatenate(keep_x)[:n], np.concatenate(keep_y)[:n], info
 
 
-def _summarise(system, H_c, start, T, censored, horizon, times, info, t0) -> FirstPassage:
+def _summarise(system, safe, start, T, censored, horizon, times, info, t0) -> FirstPassage:
     """Mean ± SE, quantiles, empirical R(t) with its DKW band, and the censoring
     warning."""
     n = T.size
@@ -356,10 +377,11 @@ def _summarise(system, H_c, start, T, censored, horizon, times, info, t0) -> Fir
         missing = float(censored.mean() / rate) if rate > 0 else math.inf
         info["censored_bias_estimate"] = missing
         warnings.warn(f"{WHERE}: {int(censored.sum())} of {n} paths "
-                      f"({100 * censored.mean():.3g} %) were still inside H < {H_c:g} at "
+                      f"({100 * censored.mean():.3g} %) were still inside {safe.describe()} at "
                       f"t_max = {horizon:.6g}: the mean {mean:.6g} is that of min(T, t_max), "
                       f"a lower bound (short by ~{missing:.3g} on an exponential tail); R(t) "
                       "is exact up to t_max; raise t_max", RuntimeWarning, stacklevel=3)
     info["seconds"] = time.perf_counter() - t0
-    return FirstPassage("montecarlo", system, float(H_c), start, mean, mean_se, grid, R,
-                        band, info)
+    return FirstPassage("montecarlo", system,
+                        float(safe.energy) if safe.kind == "energy" else None, start, mean,
+                        mean_se, grid, R, band, info, safe_set=safe)

@@ -32,6 +32,17 @@ ESTIMATE_ASSUMES = (
     "time grid times the same factor (its sampling noise included)")
 
 
+def safe_keyword(fp: FirstPassage) -> dict[str, Any]:
+    """The keyword that gives ``fp``'s safe set again (energy, displacement or
+    impact_speed; an open displacement bound as the wall that stops paths first)."""
+    safe = fp.safe_set
+    if safe.kind != "displacement":
+        return {safe.kind: safe.value}
+    lo, hi = fp.system.x_bounds
+    return {"displacement": (safe.x_lo if math.isfinite(safe.x_lo) else lo,
+                             safe.x_hi if math.isfinite(safe.x_hi) else hi)}
+
+
 def error_estimate(fp: FirstPassage) -> dict[str, Any]:
     """The error estimate of a Monte Carlo first passage (:meth:`FirstPassage.error_estimate`).
 
@@ -75,7 +86,7 @@ def error_estimate(fp: FirstPassage) -> dict[str, Any]:
     start = "stationary" if kind == "stationary" else \
         {"mean": tuple(value["mean"]), "std": tuple(value["std"])} if kind == "gaussian" \
         else tuple(value)
-    kw = dict(energy=fp.energy, start=start, n_paths=int(info["n_paths"]),
+    kw = dict(**safe_keyword(fp), start=start, n_paths=int(info["n_paths"]),
               seed=int(info["seed_entropy"]), times=np.asarray(fp.times, float),
               t_max=float(info["t_max"]) if info.get("n_censored", 0) else None,
               bridge=info.get("crossing") != "step ends", progress=False)

@@ -44,11 +44,15 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from . import _kernel as K
-from ._flight import _flight
+from ._flight import LEFT, RIGHT, _flight
+from ._laws import restitution_side
 from ._rng import FASTMATH, _next, _normal
 
 #: ``status`` of a path: still inside at the horizon (parked), exited, or NaN state.
 ALIVE, EXITED, FAILED = 0, 1, 2
+#: The safe set a block's paths leave (:mod:`fpk_vibro.safe_sets`): {H < H_c},
+#: {x_lo < x < x_hi}, or no impact faster than u_c.
+ENERGY, DISPLACEMENT, IMPACT_SPEED = 0, 1, 2
 #: Bridge exponents beyond this (crossing probability below e⁻¹⁶ ≈ 1.1e-7 in the step)
 #: are not drawn: a path spends a few steps per unit of exponent near the cut, so the
 #: exits left out are ~1e-6 of the paths.
@@ -126,15 +130,40 @@ def _monitor(xa, va, xb, n, hh, a, bcub, d1, d2, hc, cut2, bridge, yo, bo, yn, b
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def _peak(j, ml, mr, tl, tr, glo, ghi, rlo, rhi, Hp, Up, Gw, Rw):
+def _peak(j, ml, mr, tl, tr, glo, ghi, law, Hp, Up, Gw, Rw):
     """Slot j's impact(s) in this step: the energy just before the larger one (from
-    Σu² per wall, exact for one impact), the velocity then and the wall's G, r."""
+    Σu² per wall, exact for one impact), the velocity then and the wall's G, r(u)."""
     hl = glo + 0.5 * tl if ml > 0 else -np.inf
     hr = ghi + 0.5 * tr if mr > 0 else -np.inf
     if hr >= hl:
-        Hp[j], Up[j], Gw[j], Rw[j] = hr, math.sqrt(tr), ghi, rhi
+        u = math.sqrt(tr)
+        Hp[j], Up[j], Gw[j] = hr, u, ghi
+        Rw[j] = restitution_side(u, law, RIGHT)
     else:
-        Hp[j], Up[j], Gw[j], Rw[j] = hl, -math.sqrt(tl), glo, rlo
+        u = math.sqrt(tl)
+        Hp[j], Up[j], Gw[j] = hl, -u, glo
+        Rw[j] = restitution_side(u, law, LEFT)
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def _monitor_x(xa, xm, n, xlo, xhi):
+    """Bit mask of the slots whose step left {xlo < x < xhi} (or is NaN): the
+    scheme's path is linear between the step's start, its midpoint ``xm`` and its
+    end ``xa``, so a crossing shows at the midpoint or the end."""
+    ex = 0
+    for j in range(n):
+        x1 = xa[j]
+        x2 = xm[j]
+        inside = (x1 > xlo) & (x1 < xhi) & (x2 > xlo) & (x2 < xhi)
+        ex |= (0 if inside else 1) << j
+    return ex
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _cross_time(x0, x1, xlo, xhi):
+    """Fraction of the linear move x0 → x1 (x0 inside) at which it leaves (xlo, xhi)."""
+    b = xlo if x1 <= xlo else xhi
+    return min(max((b - x0) / (x1 - x0), 0.0), 1.0)
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -151,12 +180,20 @@ def _load(j, i, xs, ys, xa, va, ids, hh, a, bcub, hc, yo, bo):
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _fp_block(b, b0, order, starts, xs, ys, ks, tout, status, rng, p, ip, d1, d2, hc,
-              kmax, bridge, counts):
+              kmax, bridge, counts, kind, xlo, xhi, uc, law):
     """Block b0 + b of :func:`._first_passage.simulate`: its queue
     ``order[starts[b0+b]:starts[b0+b+1]]`` of path indices, each simulated from
     (xs, ys) after ks steps until it exits or reaches ``kmax`` steps (module
     docstring).  ``counts[b0+b]`` gets the path-steps done, the exits seen at a step
-    end or an impact, and those by the bridge."""
+    end or an impact, and those by the bridge.
+
+    ``kind`` the safe set: :data:`ENERGY` (H < ``hc``, the module docstring),
+    :data:`DISPLACEMENT` (``xlo`` < x < ``xhi``: the scheme's path is piecewise
+    linear in a step, through its midpoint, so the crossing is located exactly on it,
+    a flight towards a wall beyond a bound included) or :data:`IMPACT_SPEED` (an
+    impact faster than ``uc``: the fastest impact of each step, timed at the step's
+    middle).  ``law``: the walls' restitution (:func:`._params.wall_laws`).
+    """
     bb = b0 + b
     a = p.a
     bcub = p.b
@@ -198,6 +235,7 @@ def _fp_block(b, b0, order, starts, xs, ys, ks, tout, status, rng, p, ip, d1, d2
     Up = np.empty(C)                     # the velocity then, the wall's G and r
     Gw = np.empty(C)
     Rw = np.empty(C)
+    Tq = np.empty(C)                     # a crossing before an impact: time in the step
     st = np.empty(C, dtype=np.int64)     # slot j has done kstep − st[j] steps
     ids = np.empty(C, dtype=np.int64)
     q = starts[bb]
@@ -222,37 +260,63 @@ def _fp_block(b, b0, order, starts, xs, ys, ks, tout, status, rng, p, ip, d1, d2
         bad1, bad2 = K._smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2,
                                      d2s2, has_d2, lo, hi)
         hit = 0
+        pre = 0                         # displacement: crossed before an impact
+        fast = 0                        # impact speed: an impact faster than uc
         while bad2 != 0:                # an impact in the second flight only
             j = trailing_zeros(bad2)
             bad2 &= bad2 - 1
-            x, y, ml, mr, _, _, tl, tr = _flight(xm[j], vb[j], hh, 0.0, lo, hi, flo, fhi,
-                                                 rlo, rhi, maxk, lo, hi)
+            if kind == DISPLACEMENT:
+                x0 = xm[j]
+                xt = x0 + hh * vb[j]    # the flight up to the wall is this line
+                if (x0 > xlo) & (x0 < xhi) & ((xt <= xlo) | (xt >= xhi)):
+                    Tq[j] = hh * (1.0 + _cross_time(x0, xt, xlo, xhi))
+                    pre |= 1 << j
+            x, y, ml, mr, _, _, tl, tr, _, _, um = _flight(
+                xm[j], vb[j], hh, 0.0, lo, hi, flo, fhi, rlo, rhi, maxk, lo, hi, None, 0.0,
+                0.0, law, None, 0.0, 0)
             xb[j] = x
             vb[j] = y
             if ml + mr > 0:
                 hit |= 1 << j
-                _peak(j, ml, mr, tl, tr, glo, ghi, rlo, rhi, Hp, Up, Gw, Rw)
+                _peak(j, ml, mr, tl, tr, glo, ghi, law, Hp, Up, Gw, Rw)
+                if um > uc:
+                    fast |= 1 << j
         while bad1 != 0:                # in the first flight (or a NaN): whole step
             j = trailing_zeros(bad1)
             bad1 &= bad1 - 1
             x = xa[j]
             f = -(a + bcub * x * x) * x
-            x, y, f, ml, mr, _, _, tl, tr = K._step_walls(
+            x, y, f, ml, mr, _, _, tl, tr, _, _, um = K._step_full(
                 x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo,
-                fhi, rlo, rhi, has_d2, maxk, lo, hi)
+                fhi, rlo, rhi, has_d2, maxk, lo, hi, None, 0.0, 0.0, law, None, 0.0, 0)
             xb[j] = x
             vb[j] = y - hh * f
             if ml + mr > 0:
                 hit |= 1 << j
-                _peak(j, ml, mr, tl, tr, glo, ghi, rlo, rhi, Hp, Up, Gw, Rw)
+                _peak(j, ml, mr, tl, tr, glo, ghi, law, Hp, Up, Gw, Rw)
+                if um > uc:
+                    fast |= 1 << j
         xa, xb = xb, xa                 # (xa, va) the new states, (xb, vb) the old
         va, vb = vb, va
         kstep += 1
         steps += n
-        ex, br = _monitor(xa, va, xb, n, hh, a, bcub, d1, d2, hc, cut2, bridge, yo, bo, yn,
-                          bn)
-        hit &= ~ex
         mid = 0                         # exits at an impact: timed at the middle
+        if kind == ENERGY:
+            ex, br = _monitor(xa, va, xb, n, hh, a, bcub, d1, d2, hc, cut2, bridge, yo, bo,
+                              yn, bn)
+        elif kind == DISPLACEMENT:
+            ex = _monitor_x(xa, xm, n, xlo, xhi) | pre
+            br = 0
+            hit = 0
+        else:
+            ex = fast
+            for j in range(n):
+                if not (xa[j] == xa[j]):
+                    ex |= 1 << j
+            mid = fast
+            br = 0
+            hit = 0
+        hit &= ~ex
         while hit != 0:
             j = trailing_zeros(hit)
             hit &= hit - 1
@@ -276,15 +340,38 @@ def _fp_block(b, b0, order, starts, xs, ys, ks, tout, status, rng, p, ip, d1, d2
             ex &= ex - 1
             i = ids[j]
             k = kstep - st[j]
-            y0, g0, _ = _state(xb[j], vb[j], hh, a, bcub, hc)
-            y1, g1, _ = _state(xa[j], va[j], hh, a, bcub, hc)
-            h0 = 0.5 * y0 * y0 + g0
-            h1 = 0.5 * y1 * y1 + g1
+            if kind == DISPLACEMENT:
+                x1 = xa[j]
+                if not (x1 == x1):
+                    tout[i] = (k - 1) * dt
+                    status[i] = FAILED
+                    continue
+                x0 = xb[j]
+                x2 = xm[j]
+                if (pre >> j) & 1:
+                    s_ = Tq[j]
+                elif not ((x2 > xlo) & (x2 < xhi)):
+                    s_ = hh * _cross_time(x0, x2, xlo, xhi)
+                else:
+                    s_ = hh * (1.0 + _cross_time(x2, x1, xlo, xhi))
+                tout[i] = (k - 1) * dt + s_
+                status[i] = EXITED
+                n_end += 1.0
+                continue
+            if kind == IMPACT_SPEED and not (xa[j] == xa[j]):
+                tout[i] = (k - 1) * dt
+                status[i] = FAILED
+                continue
             if (mid >> j) & 1:
                 tout[i] = (k - 0.5) * dt
                 status[i] = EXITED
                 n_end += 1.0
-            elif h1 == h1:              # within the step, H linear between its ends
+                continue
+            y0, g0, _ = _state(xb[j], vb[j], hh, a, bcub, hc)
+            y1, g1, _ = _state(xa[j], va[j], hh, a, bcub, hc)
+            h0 = 0.5 * y0 * y0 + g0
+            h1 = 0.5 * y1 * y1 + g1
+            if h1 == h1:                # within the step, H linear between its ends
                 tout[i] = (k - 1 + min((hc - h0) / (h1 - h0), 1.0)) * dt
                 status[i] = EXITED
                 n_end += 1.0

@@ -39,7 +39,8 @@ from numba import njit, types
 from numba.cpython.unsafe.numbers import trailing_zeros
 from numba.extending import intrinsic
 
-from ._flight import LEFT, NW, RIGHT, W_N, W_Q, W_U, _flight
+from ._flight import (LEFT, NW, NX, RIGHT, W_N, W_Q, W_U, X_E, X_G0, X_GL, X_GM,  # noqa: F401
+                      X_GR, X_M, X_TL, X_TR, _flight)
 from ._rng import FASTMATH, _floor_block, _normal
 from ._threads import run_blocks
 
@@ -71,25 +72,41 @@ def _fma(typingctx, a, b, c):
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _step_walls(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
-                has_d2, maxk, lo_t, hi_t, hu=None, iwl=0.0, iwr=0.0):
+def _step_full(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
+               has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext, t0, i):
     """One BAOAB step (module docstring); f = F(x) on entry and on return.
 
     Returns (x, y, f) and the wall statistics of the step as :func:`._flight._flight`
-    gives them (impacts left, right, Σu left, right, Σu² left, right); ``hu``,
-    ``iwl``, ``iwr``: the impact-speed histogram, as there.
+    gives them (impacts left, right, Σu left, right, Σu² left, right, Σe left, right,
+    largest u); ``hu``, ``iwl``, ``iwr``, ``law``, ``ext``, ``i``: as there (``t0``
+    the step's start time).
     """
     y += hh * f
-    x, y, nl, nr, ul, ur, ql, qr = _flight(x, y, hh, -hh, lo, hi, flo, fhi, rlo, rhi,
-                                           maxk, lo_t, hi_t, hu, iwl, iwr)
+    x, y, nl, nr, ul, ur, ql, qr, el, er, um = _flight(
+        x, y, hh, -hh, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext,
+        t0, i)
     if has_d2:
         y = ec * y + math.sqrt(d1s2 + d2s2 * x * x) * z
     else:
         y = ec * y + sd0 * z
-    x, y, nl2, nr2, ul2, ur2, ql2, qr2 = _flight(x, y, hh, 0.0, lo, hi, flo, fhi, rlo, rhi,
-                                                 maxk, lo_t, hi_t, hu, iwl, iwr)
+    x, y, nl2, nr2, ul2, ur2, ql2, qr2, el2, er2, um2 = _flight(
+        x, y, hh, 0.0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext,
+        t0 + hh, i)
     f = -(a + bcub * x * x) * x
-    return x, y + hh * f, f, nl + nl2, nr + nr2, ul + ul2, ur + ur2, ql + ql2, qr + qr2
+    return (x, y + hh * f, f, nl + nl2, nr + nr2, ul + ul2, ur + ur2, ql + ql2, qr + qr2,
+            el + el2, er + er2, max(um, um2))
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _step_walls(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
+                has_d2, maxk, lo_t, hi_t, hu=None, iwl=0.0, iwr=0.0):
+    """:func:`_step_full` with constant restitutions ``rlo``, ``rhi``, returning (x, y,
+    f, impacts left, right, Σu left, right, Σu² left, right): the scalar reference
+    of the tests."""
+    (x, y, f, nl, nr, ul, ur, ql, qr, _, _, _) = _step_full(
+        x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi, has_d2,
+        maxk, lo_t, hi_t, hu, iwl, iwr, None, None, 0.0, 0)
+    return x, y, f, nl, nr, ul, ur, ql, qr
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -151,7 +168,7 @@ def _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-               mom, imp, xext, hH, hx, hy, hj, wimp, speeds):
+               mom, imp, xext, hH, hx, hy, hj, wimp, speeds, law, extra, asked):
     """Block b of :func:`advance` (compiled without the GIL; :func:`advance`
     runs the blocks on a thread pool).
 
@@ -161,7 +178,13 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     (a wall crossed, ~2 % of path-steps in the paper's case) with the scalar
     :func:`_step_walls`.  Impact statistics are summed in locals and added to
     ``imp[b]`` and ``wimp[b]`` once, at the end; impact speeds go to ``speeds[b]``
-    (a histogram per wall, :mod:`._flight`; no column: not kept).
+    (a histogram per wall, :mod:`._flight`; no column: not kept).  ``law``: the
+    walls' restitution packed (:func:`._params.wall_laws`); the energy the impacts
+    remove and the largest speed go to ``extra[b]``.  ``asked``: None, or (last,
+    energies, gaps) (:func:`advance`): the impact energies into ``energies[b]`` and,
+    where ``last`` has a row per path (each path's last impact: time relative to this
+    call's start on entry, to its end on return, and wall), the gaps between impacts
+    into ``extra[b]`` and ``gaps[b]`` (:mod:`._flight`).
     """
     a = p.a
     bcub = p.b
@@ -179,6 +202,19 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     hu = speeds[b]
     iwl = p.u_iw_left
     iwr = p.u_iw_right
+    if asked is None:
+        ext = None
+        track = False
+        last = np.zeros((0, 2))
+    else:
+        last = asked[0]
+        ext = (extra[b], asked[1][b], asked[2][b], last, p.e_iw_left, p.e_iw_right,
+               p.g_iw)
+        track = last.shape[0] > 0
+    h = 2.0 * hh
+    el = 0.0
+    er = 0.0
+    um = 0.0
     has_d2 = ip.has_d2 != 0
     maxk = ip.max_impacts
     lo_t = lo                       # ∓inf where there is no wall
@@ -217,9 +253,12 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
             while bad2 != 0:                # an impact in the second flight only
                 j = trailing_zeros(bad2)
                 bad2 &= bad2 - 1
-                x, y, ml, mr, sl, sr, tl, tr = _flight(xm[j], vb[j], hh, 0.0, lo, hi, flo,
-                                                       fhi, rlo, rhi, maxk, lo_t, hi_t, hu,
-                                                       iwl, iwr)
+                x, y, ml, mr, sl, sr, tl, tr, gl, gr, gm = _flight(
+                    xm[j], vb[j], hh, 0.0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu,
+                    iwl, iwr, law, ext, k * h + hh, i0 + j)
+                el += gl
+                er += gr
+                um = max(um, gm)
                 xb[j] = x
                 vb[j] = y
                 nl += ml
@@ -233,9 +272,13 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                 bad1 &= bad1 - 1
                 x = xa[j]
                 f = -(a + bcub * x * x) * x
-                x, y, f, ml, mr, sl, sr, tl, tr = _step_walls(
+                x, y, f, ml, mr, sl, sr, tl, tr, gl, gr, gm = _step_full(
                     x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi,
-                    flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr)
+                    flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext,
+                    k * h, i0 + j)
+                el += gl
+                er += gr
+                um = max(um, gm)
                 xb[j] = x
                 vb[j] = y - hh * f
                 nl += ml
@@ -254,6 +297,9 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
             x = xa[j]
             xs[i0 + j] = x
             ys[i0 + j] = va[j] - hh * (a + bcub * x * x) * x      # y = v + (h/2) F(x)
+        if track:
+            for j in range(n):
+                last[i0 + j, 0] -= n_steps * h      # relative to the call's end
     imp[b, 0] += nl + nr
     imp[b, 1] += (starts[b + 1] - starts[b]) * float(n_steps)
     wimp[b, LEFT, W_N] += nl
@@ -262,6 +308,9 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     wimp[b, RIGHT, W_U] += ur
     wimp[b, LEFT, W_Q] += ql
     wimp[b, RIGHT, W_Q] += qr
+    extra[b, LEFT, X_E] += el
+    extra[b, RIGHT, X_E] += er
+    extra[b, 0, X_M] = max(extra[b, 0, X_M], um)
     rng[b, 0] = s0
     rng[b, 1] = s1
     rng[b, 2] = s2
@@ -269,7 +318,8 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
 
 
 def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-            mom, imp, xext, hH, hx, hy, hj, threads=None, walls=None, speeds=None):
+            mom, imp, xext, hH, hx, hy, hj, threads=None, walls=None, speeds=None,
+            law=None, extra=None, last=None, energies=None, gaps=None):
     """Advance every path by ``n_steps`` steps (in place), sampling if asked.
 
     Blocks run on ``threads`` workers (:func:`run_blocks`).  Within a block,
@@ -309,14 +359,44 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         Per-block impact-speed histograms, added to (:mod:`._flight`; bin widths
         1/``p.u_iw_left``, 1/``p.u_iw_right``, column m − 1 the speeds beyond).  Default
         (or m = 0): not kept.
+    law : float64 array, optional
+        The walls' restitution packed (:func:`._params.wall_laws`); default the
+        constants ``p.r_left``, ``p.r_right``.
+    extra : float64[n_blocks, 2, NX], optional
+        Per-block further wall statistics, added to (:mod:`._flight`: the energy the
+        impacts remove, the largest impact speed in ``[b, 0, X_M]``, the gaps
+        between impacts).
+        Default: not kept.
+    last : float64[n_paths, 2], optional
+        Each path's last impact (time relative to now, −inf: none; wall 0 left, 1
+        right), updated; then the gaps between impacts are counted in ``extra``
+        (:mod:`._flight`).  Default: not tracked.
+    energies : float64[n_blocks, 2, m], optional
+        Per-block histograms of the energy each impact removes (bin widths
+        1/``p.e_iw_left``, 1/``p.e_iw_right``).  Default: not kept.
+    gaps : float64[n_blocks, 1, m], optional
+        Per-block histogram of the gaps between successive impacts of a path (bin
+        width 1/``p.g_iw``).  Default: not kept.
     """
+    nb = rng.shape[0]
     if walls is None:
-        walls = np.zeros((rng.shape[0], 2, NW))
+        walls = np.zeros((nb, 2, NW))
     if speeds is None:
-        speeds = np.zeros((rng.shape[0], 2, 0))
-    run_blocks(_run_block, rng.shape[0], (xs, ys, rng, starts, n_steps, step0,
-                                          sample_every, p, ip, mom, imp, xext,
-                                          hH, hx, hy, hj, walls, speeds), threads)
+        speeds = np.zeros((nb, 2, 0))
+    if law is None:
+        law = np.array([0.0, p.r_left, 0.0, 1.0, 0.0, 12.0,
+                        0.0, p.r_right, 0.0, 1.0, 0.0, 12.0])
+    if extra is None:
+        extra = np.zeros((nb, 2, NX))
+    asked = None
+    if last is not None or (energies is not None and energies.shape[2] > 0) or \
+            (gaps is not None and gaps.shape[2] > 0):
+        asked = (np.zeros((0, 2)) if last is None else last,
+                 np.zeros((nb, 2, 0)) if energies is None else energies,
+                 np.zeros((nb, 1, 0)) if gaps is None else gaps)
+    run_blocks(_run_block, nb, (xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
+                                mom, imp, xext, hH, hx, hy, hj, walls, speeds, law, extra,
+                                asked), threads)
 
 
 def normals_floor(rng, per_block, threads=None):

@@ -14,9 +14,12 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from ..model import VibroImpactSystem
+import numpy as np
 
-__all__ = ["StepParams", "StepFlags", "step_params"]
+from ..model import VibroImpactSystem
+from ._laws import CONSTANT, encode, pack
+
+__all__ = ["StepParams", "StepFlags", "step_params", "wall_laws"]
 
 # which walls exist (StepFlags.mode)
 MODE_NONE, MODE_RIGHT, MODE_BOTH, MODE_LEFT = 0, 1, 2, 3
@@ -34,7 +37,8 @@ class StepParams(NamedTuple):
     d2s2: float             #: D2 s²
     lo: float               #: the left wall x_L (−inf: none)
     hi: float               #: the right wall x_R (+inf: none)
-    r_right: float          #: restitution of the right wall
+    r_right: float          #: restitution of the right wall (NaN for a law of u: the
+                            #: kernels then take :func:`wall_laws`)
     barrier_energy: float   #: energy above which a path can impact (P_impact)
     h0: float = 0.0         #: energy histogram: first edge and inverse bin width
     h_iw: float = 0.0
@@ -51,6 +55,9 @@ class StepParams(NamedTuple):
     r_left: float = 1.0     #: restitution of the left wall
     u_iw_left: float = 0.0  #: inverse bin widths of the impact-speed histograms
     u_iw_right: float = 0.0
+    e_iw_left: float = 0.0  #: inverse bin widths of the impact-energy histograms
+    e_iw_right: float = 0.0
+    g_iw: float = 0.0       #: inverse bin width of the inter-impact time histogram
 
 
 class StepFlags(NamedTuple):
@@ -69,18 +76,30 @@ def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
     lo, hi = system.x_bounds                  # ∓inf where there is no wall
     f_lo, f_hi = (-float(system.restoring_force(xb)) if math.isfinite(xb) else 0.0
                   for xb in (lo, hi))
+    (kl, pl, _, _), (kr, pr, _, _) = (encode(w) for w in (system.left, system.right))
     p = StepParams(
         a=float(system.a), b=float(system.b), hh=float(0.5 * dt), ec=math.exp(-c * dt),
         sd0=math.sqrt(system.D1 * s2), d1s2=float(system.D1 * s2),
         d2s2=float(system.D2 * s2), lo=float(lo), hi=float(hi),
-        r_right=float(system.right.r) if system.right is not None else 1.0,
+        r_right=float(pr[0]) if kr == CONSTANT else math.nan,
         barrier_energy=float(system.barrier_energy), f_lo=f_lo, f_hi=f_hi,
-        r_left=float(system.left.r) if system.left is not None else 1.0)
+        r_left=float(pl[0]) if kl == CONSTANT else math.nan)
     flags = StepFlags(
         mode={"none": MODE_NONE, "right": MODE_RIGHT, "both": MODE_BOTH,
               "left": MODE_LEFT}[system.barriers],
         has_d2=1 if system.D2 > 0 else 0, max_impacts=int(max_impacts))
     return p, flags
+
+
+def wall_laws(system: VibroImpactSystem) -> np.ndarray:
+    """The walls' restitution laws as the kernels take them: packed in one array
+    (:func:`._laws.pack`, the encoding of :func:`._laws.encode`; an absent wall is
+    elastic, never hit).  A Python callable is tabulated up to the speed of a
+    path 60 typical energies above the bottom of the potential."""
+    from ._step_size import typical_energy
+    u_max = math.sqrt(2.0 * 60.0 * typical_energy(system)) if any(
+        w.law is not None and w.law.kind == "callable" for _, w in system.walls) else 1e3
+    return pack(system.left, system.right, u_max)
 
 
 def _positions(*names: str) -> tuple[int, ...]:
@@ -90,7 +109,7 @@ def _positions(*names: str) -> tuple[int, ...]:
 # the field positions, for code that indexes the record (the tests' scalar references)
 (P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD, P_H0, P_HIW, P_X0,
  P_XIW, P_Y0, P_YIW, P_JX0, P_JXIW, P_JY0, P_JYIW, P_FLO, P_FHI, P_RL, P_UWL,
- P_UWR) = range(len(StepParams._fields))
+ P_UWR, P_EWL, P_EWR, P_GW) = range(len(StepParams._fields))
 NP = len(StepParams._fields)
 I_MODE, I_D2, I_MAXK = range(len(StepFlags._fields))
 NI = len(StepFlags._fields)

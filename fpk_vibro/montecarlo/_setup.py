@@ -17,13 +17,16 @@ from ..model import VibroImpactSystem
 from ..progress import Progress as _Progress
 from ..scales import energy_scale, potential_min  # noqa: F401
 from ._histograms import Histograms, bin_count, x_range  # noqa: F401
-from ._params import StepFlags, StepParams, step_params  # noqa: F401
+from ._params import StepFlags, StepParams, step_params, wall_laws  # noqa: F401
 from .estimate import second_run_label
 from ._step_size import (DT_RSE, STICK_DIV, STICK_R, binding_scale,  # noqa: F401
                          crossing_divisor, default_dt, default_sample_every, default_t_burn,
                          dt_limit, relaxation_rate, step_bounds, time_scales,
                          typical_energy)
 from .solution import ALL_QUANTITIES
+
+#: The histograms whose edges start at 0, and what they bin.
+FROM_ZERO = {"impacts": "speeds", "impact_energy": "energies", "inter_impact": "times"}
 
 CHUNK_PATH_STEPS = 1 << 23      # path-steps per kernel call (progress / Ctrl-C granularity)
 
@@ -82,11 +85,13 @@ def _edges_or_count(where: str | None, name: str, v: Any) -> int | np.ndarray:
 
 
 def check_bins(name: str, bins: Any, where: str | None) -> dict[str, Any]:
-    """bins: int n (n bins for energy, x, y and each wall's impact speeds; n//2 per axis
-    for joint) or a dict (impact-speed edges must start at 0)."""
+    """bins: int n (n bins for energy, x, y, each wall's impact speeds and impact
+    energies and the inter-impact times; n//2 per axis for joint) or a dict (edges of
+    impact speeds, energies and inter-impact times must start at 0)."""
     if isinstance(bins, numbers.Integral) and not isinstance(bins, bool):
         n = _checks.check_int(name, bins, 2, 100_000, where=where)
-        return {"energy": n, "x": n, "y": n, "joint": (max(n // 2, 1),) * 2, "impacts": n}
+        return {"energy": n, "x": n, "y": n, "joint": (max(n // 2, 1),) * 2, "impacts": n,
+                "impact_energy": n, "inter_impact": n}
     if not isinstance(bins, dict):
         raise _checks.invalid(where, name, "an integer in [2, 100000] or a table "
                               "{quantity: count or edges}", bins)
@@ -105,9 +110,9 @@ def check_bins(name: str, bins: Any, where: str | None) -> dict[str, Any]:
                       _edges_or_count(where, f"{name}['joint'][1]", v[1]))
         else:
             out[k] = _edges_or_count(where, f"{name}[{k!r}]", v)
-            if k == "impacts" and isinstance(out[k], np.ndarray) and out[k][0] != 0.0:
-                raise _checks.invalid(where, f"{name}['impacts']", "a bin count or equally "
-                                      "spaced edges starting at 0 (speeds)", v)
+            if k in FROM_ZERO and isinstance(out[k], np.ndarray) and out[k][0] != 0.0:
+                raise _checks.invalid(where, f"{name}[{k!r}]", "a bin count or equally "
+                                      f"spaced edges starting at 0 ({FROM_ZERO[k]})", v)
     return out
 
 

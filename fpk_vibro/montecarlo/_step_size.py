@@ -96,6 +96,19 @@ def _time_scales(system: VibroImpactSystem) -> tuple[tuple[str, float], ...]:
     return tuple(out.items())
 
 
+def wall_r(system: VibroImpactSystem, wall) -> float:
+    """The restitution of ``wall`` the step size rules take: the number, or for a law
+    r(u) its smallest value over the impact speeds a path reaches (up to the speed at
+    the wall of 30 typical energies above the bottom of the potential; the lower r,
+    the more energy an impact removes and the smaller the step the rules ask)."""
+    if wall.law is None:
+        return float(wall.r)
+    E = typical_energy(system)
+    g0 = potential_min(system)
+    du = g0 + 30.0 * E - float(system.potential(wall.position))
+    return wall.r_bounds(math.sqrt(2.0 * max(du, 30.0 * E)))[0]
+
+
 def _bounce_times(system: VibroImpactSystem) -> list[tuple[float, float]]:
     """(2 D(x_w)/F(x_w)², r_w) for each wall the force F pushes paths into (a
     preloaded wall, a double well or softening spring beyond its hump): a path at
@@ -107,7 +120,8 @@ def _bounce_times(system: VibroImpactSystem) -> list[tuple[float, float]]:
         xw = w.position
         F = -float(system.restoring_force(xw))
         if (F > 0 if side == "right" else F < 0):
-            out.append((2.0 * (system.D1 + system.D2 * xw * xw) / (F * F), w.r))
+            out.append((2.0 * (system.D1 + system.D2 * xw * xw) / (F * F),
+                        wall_r(system, w)))
     return out
 
 
@@ -120,7 +134,8 @@ STICK_DIV = (256.0, 48.0, 24.0, 12.0)
 def crossing_divisor(system: VibroImpactSystem, E: float) -> float:
     """k: the default step is the crossing time L/v over k (:func:`step_bounds`).
 
-    Largest over the walls of max(16 (1 − r²), φ k_s(r)), at least 1/8:
+    Largest over the walls of max(16 (1 − r²), φ k_s(r)), at least 1/8 (r of a law:
+    :func:`wall_r`, its smallest over the speeds reached):
 
     - 16 (1 − r²): an impact removes (1 − r²) of the kinetic energy, and steps that
       span a good part of the decay time L/((1 − r²) v) lose the energy decay within
@@ -143,7 +158,7 @@ def crossing_divisor(system: VibroImpactSystem, E: float) -> float:
         F = abs(float(system.restoring_force(xw)))
         Dw = system.D1 + system.D2 * xw * xw
         phi = min(1.0, 2.0 * Dw / (F * v)) if F * v > 0 else 1.0
-        k = max(k, _divisor(w.r, phi, 0.125))
+        k = max(k, _divisor(wall_r(system, w), phi, 0.125))
     return k
 
 

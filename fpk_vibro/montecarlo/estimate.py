@@ -1,7 +1,10 @@
 """The error estimate of a Monte Carlo answer: statistics and time-step bias together.
 
 ``MonteCarloSolution.error_estimate()`` gives, for E[H], E[x²], E[y²] and P_impact
-(relative; P_impact absolute below 1e-3)::
+(relative; P_impact absolute below 1e-3), and for the mean time between impacts
+(``mean_inter_impact_time``, where the run kept "inter_impact") and the mean energy
+one impact removes at each inelastic wall (``mean_impact_energy_left``/``_right``),
+relative::
 
     estimate = 2 SE + |bias| + 2 SE(bias)
 
@@ -212,10 +215,29 @@ def _stationary_second(sol) -> Second:
     kw = dict(n_paths=int(sol.n_paths), t_burn=float(sol.t_burn),
               t_sample=float(sol.t_sample), n_batches=int(sol.n_batches),
               seed=None if sol.seed_entropy is None else int(sol.seed_entropy),
-              quantities=("x",), progress=getattr(sol, "_progress", False))
+              quantities=("x",) + (("inter_impact",) if "inter_impact" in sol.quantities
+                                   else ()),
+              progress=getattr(sol, "_progress", False))
     t0 = time.perf_counter()
     other, step = second_run(lambda dt: stationary(sol.system, dt=dt, **kw), sol.dt)
     return other, bias_factor([(1.0, sol.dt)], [other.dt]), step, time.perf_counter() - t0
+
+
+def impact_figures(sol) -> dict[str, tuple[float, float]]:
+    """The impact figures an estimate covers besides the moments, as (value, SE):
+    ``mean_inter_impact_time`` (where the run kept "inter_impact") and
+    ``mean_impact_energy_<wall>`` (each wall that removes energy, where the result
+    holds it)."""
+    out: dict[str, tuple[float, float]] = {}
+    if "inter_impact" in sol.quantities:
+        out["mean_inter_impact_time"] = (sol.mean_inter_impact_time(),
+                                         sol.mean_inter_impact_time_se())
+    imp = sol._meta.get("impacts", {})
+    for side, wall in sol.system.walls:
+        d = imp.get(side, {})
+        if not wall.elastic and "mean_energy" in d and d.get("count", 0) > 0:
+            out[f"mean_impact_energy_{side}"] = (d["mean_energy"], d["mean_energy_se"])
+    return out
 
 
 def error_estimate(sol) -> dict[str, Any]:
@@ -254,6 +276,13 @@ def error_estimate(sol) -> dict[str, Any]:
                             "built up evenly over the steps so far")
     told = not math.isnan(factor)
     m2, se2 = (other.moments(), other.moments_se()) if told else (m, se)
+    figs = impact_figures(sol)
+    figs2 = impact_figures(other) if told else figs
+    for k, (v, e) in figs.items():           # judged like the moments
+        if k in figs2:
+            keys.append(k)
+            m[k], se[k] = v, e
+            m2[k], se2[k] = figs2[k]
     out: dict[str, Any] = {}
     bias: dict[str, float] = {}
     for k in keys:

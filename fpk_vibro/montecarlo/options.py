@@ -11,7 +11,7 @@ from ..model import VibroImpactSystem
 from ..options import Options as _Options
 from ..options import PerMode, option
 from . import _setup as S
-from .solution import ALL_QUANTITIES, QUANTITIES
+from .solution import ALL_QUANTITIES, IMPACT_QUANTITIES, QUANTITIES
 
 __all__ = ["Options"]
 
@@ -106,10 +106,11 @@ class Options(_Options):
             self._validate_passage(system, bad)
             return
 
-        if "impacts" in self.quantities and (mode != "stationary" or not system.walls):
+        asked = [q for q in IMPACT_QUANTITIES if q in self.quantities]
+        if asked and (mode != "stationary" or not system.walls):
             raise bad("quantities", "names from " + str(QUANTITIES) + (
-                "" if mode != "stationary" else " ('impacts' needs a wall)"),
-                list(self.quantities), "impact speeds are histogrammed by "
+                "" if mode != "stationary" else f" ({', '.join(map(repr, asked))} needs a "
+                "wall)"), list(self.quantities), f"{asked[0]!r} is recorded by "
                 "montecarlo.stationary only" if mode != "stationary" else "no wall")
         if self.n_batches > self.n_paths:
             raise bad("n_batches", f"an integer in [2, n_paths = {self.n_paths}]",
@@ -182,9 +183,10 @@ class Options(_Options):
         n_hist = sum(S.bin_count(bins[q]) for q in ("energy", "x", "y") if q in self.quantities)
         if "joint" in self.quantities:
             n_hist += S.bin_count(bins["joint"][0]) * S.bin_count(bins["joint"][1])
-        if "impacts" in self.quantities:
-            n_hist += 2 * (S.bin_count(bins["impacts"]) + 1)
-        memory = 150e6 + 48.0 * self.n_paths + 3 * 8.0 * self.n_batches * n_hist
+        for q, per in (("impacts", 2), ("impact_energy", 2), ("inter_impact", 1)):
+            if q in self.quantities:
+                n_hist += per * (S.bin_count(bins[q]) + 1)
+        memory = 150e6 + (64.0 if "inter_impact" in self.quantities else 48.0) * self.n_paths + 3 * 8.0 * self.n_batches * n_hist
         if mode == "stationary":
             if r["adaptive"]:     # var(H) ≈ E[H]², correlation time ≈ 0.3/λ (measured)
                 t = min(r["max_t_sample"],

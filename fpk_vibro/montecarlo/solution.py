@@ -14,16 +14,42 @@ __all__ = ["MonteCarloSolution", "QUANTITIES", "ALL_QUANTITIES"]
 #: The histograms of the state, accumulated by default.
 QUANTITIES = ("energy", "x", "y", "joint")
 #: Everything ``quantities`` may name: the default histograms and, only when asked,
-#: "impacts" (a histogram of the speed just before each impact, per wall).
-ALL_QUANTITIES = QUANTITIES + ("impacts",)
+#: "impacts" (a histogram of the speed just before each impact, per wall),
+#: "impact_energy" (of the energy each impact removes, per wall) and "inter_impact"
+#: (of the time between successive impacts of a path, any wall).
+ALL_QUANTITIES = QUANTITIES + ("impacts", "impact_energy", "inter_impact")
+#: The quantities only a stationary run with a wall records.
+IMPACT_QUANTITIES = ("impacts", "impact_energy", "inter_impact")
 _SIDES = {"both": ("left", "right"), "left": ("left",), "right": ("right",), "none": ()}
 _HISTS = {"energy": ("edges_H",), "x": ("edges_x",), "y": ("edges_y",),
           "joint": ("edges_jx", "edges_jy")}
 _WALL_KEYS = ("count", "rate", "rate_se", "mean_speed", "mean_speed_se", "mean_square_speed",
               "mean_square_speed_se", "energy_rate", "energy_rate_se")
+#: Per-wall keys of newer results (absent from files written before them).
+_WALL_KEYS_NEW = ("mean_energy", "mean_energy_se")
+_GAP_KEYS = ("count", "mean", "mean_se", "unseen", "pairs")
+_PAIR_KEYS = ("count", "fraction", "fraction_se", "mean", "mean_se")
 _META_KEYS = ("dt", "n_paths", "n_batches", "t_sample", "t_burn", "time", "seed_entropy",
               "partial", "impact_rate", "impact_rate_se", "n_samples", "sample_every",
               "quantities", "mode", "overflow", "x_seen", "scheme")
+
+
+#: The opt-in histograms and the tag of their arrays (``edges_<tag>_<wall>``; gaps:
+#: ``edges_g``).
+_FROM_ZERO = {"impacts": "u", "impact_energy": "e", "inter_impact": "g"}
+
+
+def _gaps_ok(v: Any) -> bool:
+    """A stored ``inter_impact`` record: its keys, numbers and wall pairs."""
+    def num(x):
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+    if not (isinstance(v, dict) and set(v) == set(_GAP_KEYS)):
+        return False
+    pairs = v["pairs"]
+    return all(num(v[k]) for k in _GAP_KEYS if k != "pairs") and isinstance(pairs, dict) \
+        and all(p in ("left->left", "left->right", "right->left", "right->right")
+                and isinstance(d, dict) and set(d) == set(_PAIR_KEYS)
+                and all(num(x) for x in d.values()) for p, d in pairs.items())
 
 
 def _lookup(edges: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -62,7 +88,8 @@ class MonteCarloSolution(Solution):
         sampled time; transient: over the interval ending at ``time``) and its
         standard error; per wall see :meth:`impacts`.
     info : dict
-        ``"impacts"`` (:meth:`impacts`), ``"mean_x"`` and ``"mean_x_se"``
+        ``"impacts"`` (:meth:`impacts`), ``"inter_impact"`` (:meth:`inter_impact`,
+        where kept), ``"mean_x"`` and ``"mean_x_se"``
         (:meth:`mean_x`); only what the result holds (files written before
         per-wall counts hold neither).
     n_samples : int
@@ -179,6 +206,103 @@ class MonteCarloSolution(Solution):
         k, inside = _lookup(edges, u)
         return np.where(inside, dens[k], 0.0)
 
+    # -- impact energies and the time between impacts ------------------------------
+    def impact_energy_histogram(self, wall: str
+                                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(edges, density, se)`` of the energy e = ½ (1 − r(u)²) u² one impact on
+        ``wall`` removes: every impact sampled is counted (normalised by the wall's
+        impact count; ``overflow["impact_energy_<wall>"]`` beyond the last edge), ``se``
+        per bin between batches.  Only in runs with "impact_energy" among
+        ``quantities``."""
+        self.wall_named(wall)
+        self._need("impact_energy")
+        return (self._arrays[f"edges_e_{wall}"], self._arrays[f"density_e_{wall}"],
+                self._arrays[f"se_e_{wall}"])
+
+    def impact_energy_pdf(self, wall: str, e: np.ndarray) -> np.ndarray:
+        """Density of the energy one impact on ``wall`` removes, at ``e`` ≥ 0: the
+        histogram of :meth:`impact_energy_histogram` where the run kept it, else
+        transformed from the impact-speed histogram ("impacts",
+        :meth:`fpk_vibro.Solution.impact_energy_pdf`); zero at every e > 0 for an
+        elastic wall (each impact removes nothing)."""
+        w = self.wall_named(wall)
+        e = np.asarray(e, dtype=float)
+        if w.elastic:
+            return np.zeros(e.shape)
+        if "impact_energy" not in self.quantities:
+            if "impacts" not in self.quantities:
+                self._need("impact_energy")
+            return Solution.impact_energy_pdf(self, wall, e)
+        edges, dens, _ = self.impact_energy_histogram(wall)
+        k, inside = _lookup(edges, e)
+        return np.where(inside, dens[k], 0.0)
+
+    def mean_impact_energy(self, wall: str) -> float:
+        """Mean energy one impact on ``wall`` removes: Σ ½ (1 − r(u)²) u² over the
+        impacts sampled / their number, so exactly energy_rate / rate of
+        :meth:`impacts` (the identity); standard error :meth:`mean_impact_energy_se`."""
+        self.wall_named(wall)
+        d = self.impacts()[wall]
+        if "mean_energy" not in d:          # a file that predates it
+            return super().mean_impact_energy(wall)
+        return float(d["mean_energy"])
+
+    def mean_impact_energy_se(self, wall: str) -> float:
+        """Standard error of :meth:`mean_impact_energy` (between batches)."""
+        self.wall_named(wall)
+        return float(self.impacts()[wall].get("mean_energy_se", np.nan))
+
+    def _gaps(self) -> dict[str, Any]:
+        self._need("inter_impact")
+        return self._meta["inter_impact"]
+
+    def inter_impact(self) -> dict[str, Any]:
+        """The time between successive impacts of a path (any wall).
+
+        Each impact sampled contributes the gap since the path's impact before it
+        (tracked from the burn-in on, so a gap may start before the sampling): by
+        stationarity these are the gaps of the impact process with no length bias and
+        none cut off by the end of the run.  Impacts with no earlier impact of their
+        path are left out (``unseen``, their fraction: a bias of at most that much).
+
+        Returns
+        -------
+        dict
+            ``count`` (gaps), ``mean`` and ``mean_se`` (its mean: the identity says
+            1/(total impact rate)), ``unseen`` and ``pairs``: per wall pair
+            "left->right" etc. (previous wall → this wall) the ``count``,
+            ``fraction`` of all gaps and ``mean`` gap, each with ``*_se``.
+            Only in runs with "inter_impact" among ``quantities``.
+        """
+        g = self._gaps()
+        return {k: ({p: dict(v) for p, v in g[k].items()} if k == "pairs" else g[k])
+                for k in _GAP_KEYS}
+
+    def inter_impact_histogram(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(edges, density, se)`` of the time between successive impacts (any wall),
+        normalised by the number of gaps (``overflow["inter_impact"]`` beyond the last
+        edge); ``se`` per bin between batches."""
+        self._gaps()
+        return self._arrays["edges_g"], self._arrays["density_g"], self._arrays["se_g"]
+
+    def inter_impact_pdf(self, t: np.ndarray) -> np.ndarray:
+        """Density of the time between successive impacts (any wall), at ``t`` ≥ 0: the
+        histogram of :meth:`inter_impact_histogram`, zero outside its bins."""
+        edges, dens, _ = self.inter_impact_histogram()
+        t = np.asarray(t, dtype=float)
+        k, inside = _lookup(edges, t)
+        return np.where(inside, dens[k], 0.0)
+
+    def mean_inter_impact_time(self) -> float:
+        """Mean time between successive impacts of a path (any wall): the mean of the
+        gaps recorded (:meth:`inter_impact`), not 1/rate, so that the identity
+        mean = 1/(total impact rate) checks the run."""
+        return float(self._gaps()["mean"])
+
+    def mean_inter_impact_time_se(self) -> float:
+        """Standard error of :meth:`mean_inter_impact_time` (between batches)."""
+        return float(self._gaps()["mean_se"])
+
     # -- moments and impacts ------------------------------------------------------
     def _moment_dict(self, key: str) -> dict[str, float]:
         vals = self._arrays[key]
@@ -230,9 +354,10 @@ class MonteCarloSolution(Solution):
             ``{"left": {...}, "right": {...}}`` for the walls that exist, each with
             ``count`` (impacts of all paths), ``rate`` (impacts per unit time per
             path), ``mean_speed`` and ``mean_square_speed`` (of the speed u = |y|
-            just before impact), ``energy_rate`` (½ (1 − r²) E[u²] × rate: energy
-            the wall removes per unit time), and a standard error ``*_se`` of each
-            (between batches; NaN with no impact).  Below r ≈ 0.16 the count
+            just before impact), ``energy_rate`` (Σ ½ (1 − r(u)²) u² over the
+            impacts per unit time per path: the energy the wall removes) and
+            ``mean_energy`` (the same sum per impact), and a standard error ``*_se``
+            of each (between batches; NaN with no impact).  Below r ≈ 0.16 the count
             includes the chattering sequences resolved at the time step, so it
             depends on dt there.
 
@@ -249,8 +374,10 @@ class MonteCarloSolution(Solution):
     @property
     def info(self) -> dict[str, Any]:
         """Per-wall impacts and E[x] with its standard error (class docstring)."""
-        return {k: (self.impacts() if k == "impacts" else self._meta[k])
-                for k in ("impacts", "mean_x", "mean_x_se") if k in self._meta}
+        return {k: (self.impacts() if k == "impacts" else self.inter_impact()
+                    if k == "inter_impact" else self._meta[k])
+                for k in ("impacts", "inter_impact", "mean_x", "mean_x_se")
+                if k in self._meta}
 
     # -- persistence --------------------------------------------------------------
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -269,8 +396,10 @@ class MonteCarloSolution(Solution):
         "overflow": Rule.mapping(Rule.number(0.0, hi=1.0)),
         "x_seen": Rule.listing(Rule.number(nan=True), 2), "scheme": Rule.TEXT,
         "impacts": Rule.mapping(Rule.mapping(Rule.number(nan=True), needs=_WALL_KEYS,
-                                             keys=_WALL_KEYS),
+                                             keys=_WALL_KEYS + _WALL_KEYS_NEW),
                                 keys=("left", "right")).optional(),
+        "inter_impact": Rule("an object {count, mean, mean_se, unseen, pairs}",
+                             lambda v: _gaps_ok(v)).optional(),
         "mean_x": Rule.number(nan=True).optional(),
         "mean_x_se": Rule.number(0.0, nan=True).optional()}
 
@@ -280,12 +409,14 @@ class MonteCarloSolution(Solution):
         out = {"moments": Stored((len(_MOMENT_NAMES),)),
                "moments_se": Stored((len(_MOMENT_NAMES),), nonneg=True, nan_ok=True)}
         for q in meta["quantities"]:
-            if q == "impacts":            # one speed histogram per wall
-                for side in _SIDES[meta["mode"]]:
-                    e = f"edges_u_{side}"
+            if q in _FROM_ZERO:           # per wall (speeds, energies) or one (gaps)
+                tag = _FROM_ZERO[q]
+                for side in (_SIDES[meta["mode"]] if tag != "g" else ("",)):
+                    sfx = f"{tag}_{side}" if side else tag
+                    e = f"edges_{sfx}"
                     out[e] = Stored((e,), min_size=2, increasing=True, nonneg=True)
-                    out[f"density_u_{side}"] = Stored((f"{e}-1",), nonneg=True)
-                    out[f"se_u_{side}"] = Stored((f"{e}-1",), nonneg=True, nan_ok=True)
+                    out[f"density_{sfx}"] = Stored((f"{e}-1",), nonneg=True)
+                    out[f"se_{sfx}"] = Stored((f"{e}-1",), nonneg=True, nan_ok=True)
                 continue
             for e in _HISTS[q]:
                 out[e] = Stored((e,), min_size=2, increasing=True)
@@ -302,6 +433,8 @@ class MonteCarloSolution(Solution):
             raise ValueError(f"meta['mode'] must be {system.barriers!r} (the walls of the "
                              f"stored system); got {meta['mode']!r}")
         sides = sorted(side for side, _ in system.walls)
+        if "inter_impact" in meta["quantities"] and "inter_impact" not in meta:
+            raise ValueError("meta['inter_impact'] is missing (the run kept 'inter_impact')")
         if "impacts" in meta and sorted(meta["impacts"]) != sides:
             raise ValueError(f"meta['impacts'] must have the keys {sides} (the walls of the "
                              f"stored system); got {sorted(meta['impacts'])}")
