@@ -17,6 +17,11 @@ from .options import Options
 from .stationary import AveragedSolution, stationary
 from .transient import transient
 from .first_passage import first_passage
+from .inter_impact import estimate as _inter_impact_estimate
+from .inter_impact import inter_impact as _inter_impact
+from .stationary import INTER_IMPACT as _INTER_IMPACT
+
+_INTER_IMPACT.update(law=_inter_impact, estimate=_inter_impact_estimate)
 
 __all__ = ["Options", "coefficients", "stationary", "transient", "first_passage",
            "AveragedSolution", "EnergyGridSolution"]

@@ -37,6 +37,11 @@ from .regimes import Layout, Regime, gauss_legendre, panel_nodes
 
 __all__ = ["stationary", "AveragedSolution"]
 
+#: The inter-impact law and its estimate (:mod:`fpk_vibro.averaging.inter_impact`),
+#: handed over by the package's ``__init__``: the law needs the first-passage
+#: machinery, which lies above this module.
+INTER_IMPACT: dict[str, Any] = {}
+
 _GEO = 0.5 ** np.arange(40, 0, -1)       # geometric sub-panels toward a near-singular end
 
 
@@ -288,22 +293,19 @@ class AveragedSolution(Solution):
         (:mod:`fpk_vibro.averaging.inter_impact`; :meth:`inter_impact_estimate` says
         how far to trust it).
         """
-        from .inter_impact import inter_impact
-        return inter_impact(self).pdf(t)
+        return INTER_IMPACT["law"](self).pdf(t)
 
     def mean_inter_impact_time(self) -> float:
         """Mean time between successive impacts, the mean of :meth:`inter_impact_pdf`:
         P_impact/ν from the periodic gaps plus q τ_X from the excursions, 1/ν (ν the
         total impact rate of :meth:`impacts`) by construction."""
-        from .inter_impact import inter_impact
-        return inter_impact(self).mean
+        return INTER_IMPACT["law"](self).mean
 
     def inter_impact_estimate(self, reference: Any = None) -> dict[str, Any]:
         """How far to trust :meth:`inter_impact_pdf` (:func:`~fpk_vibro.averaging.
         inter_impact.estimate`): ``mean`` (relative, from the FE impact rate),
         ``excursion_share`` q, ``frozen_energy``, ``reference``, ``assumes``."""
-        from .inter_impact import estimate
-        return estimate(self, reference)
+        return INTER_IMPACT["estimate"](self, reference)
 
     def mean_x(self) -> float:
         """E[x] from the orbit averages of x: ∫ exp(−Φ) 2∫ x dx/|y| dH / Z.
