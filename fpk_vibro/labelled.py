@@ -169,7 +169,16 @@ def run_dataset(out_dir: str | Path):
     ``*_se`` for Monte Carlo (NaN where a method has none), each answer's estimate
     as ``<key>_error_estimate`` (inf: no bound follows; NaN: none made); densities, where the run
     wrote them, as ``pdf_<q>(point, method, <q>_index)`` with their grids as the
-    coordinate ``<q>_grid(point, <q>_index)`` (grids differ between points).
+    coordinate ``<q>_grid(point, <q>_index)`` (grids differ between points).  A
+    stationary run's impact quantities where it computed them:
+    ``inter_impact_mean(point, method)`` (with ``_se``, ``_one_over_rate``,
+    ``_error_estimate``), ``impact_energy_mean(point, method, wall)`` (with ``_se``,
+    ``_error_estimate``), their densities ``pdf_inter_impact`` /
+    ``pdf_impact_energy(point, method, wall, impact_energy_index)`` on
+    ``inter_impact_grid`` / ``impact_energy_grid``, and the first passage
+    ``first_passage_mean(point, method)`` (with ``_se``) and ``reliability(point,
+    method, reliability_index)`` at ``reliability_time`` (the safe set in the
+    attribute ``safe_set``).
     """
     xr = _xarray()
     doc = _records(out_dir)
@@ -218,7 +227,17 @@ def run_dataset(out_dir: str | Path):
     if transient:
         coords["time"] = np.asarray(times, dtype=float)
     data.update(_densities(Path(out_dir), points, methods, len(times)))
+    if not transient:
+        data.update(_impact_data(Path(out_dir), points, methods))
     ds = xr.Dataset(data, coords=coords)
+    entries = [e for p in points for e in p.get("methods", {}).values()]
+    if "wall" in ds.dims:
+        ds = ds.assign_coords(wall=sorted({w for e in entries
+                                           for w in e.get("impact_energy", {})}))
+    safe = next((e["first_passage"]["safe_set"] for e in entries
+                 if "safe_set" in e.get("first_passage", {})), None)
+    if safe is not None:
+        ds.attrs["safe_set"] = _attr(safe)
     ds.attrs.update({"name": doc.get("name", ""), "fpk_vibro_version": doc.get("fpk_vibro_version", ""),
                      "status": doc.get("status", ""), "scene": _attr(doc.get("scene", {}))})
     return ds
@@ -255,6 +274,95 @@ def _densities(out_dir: Path, points: list, methods: list[str], n_times: int = 0
             else:
                 out[f"{q}_grid"] = (("point", f"{q}_index"), grid[:, 0])
                 out[f"pdf_{q}"] = (("point", "method", f"{q}_index"), pdf[:, :, 0])
+    return out
+
+
+def _impact_data(out_dir: Path, points: list, methods: list[str]) -> dict[str, Any]:
+    """The impact quantities and first passage of a stationary run (see
+    :func:`run_dataset`), NaN where a point or method has none."""
+    out: dict[str, Any] = {}
+    entries = [[p.get("methods", {}).get(m) or {} for m in methods] for p in points]
+    shape = (len(points), len(methods))
+
+    def scalar(name: str, get) -> None:
+        arr = np.full(shape, np.nan)
+        for i, row in enumerate(entries):
+            for j, e in enumerate(row):
+                v = get(e)
+                if isinstance(v, (int, float)):
+                    arr[i, j] = v
+        if not np.isnan(arr).all():
+            out[name] = (("point", "method"), arr)
+
+    def est(rec: dict) -> Any:      # None in JSON: no bound follows
+        e = rec.get("error_estimate") or {}
+        return (np.inf if e["mean"] is None else e["mean"]) if "mean" in e else None
+
+    gap = lambda e: e.get("inter_impact") or {}                    # noqa: E731
+    scalar("inter_impact_mean", lambda e: gap(e).get("mean"))
+    scalar("inter_impact_mean_se", lambda e: gap(e).get("mean_se"))
+    scalar("inter_impact_one_over_rate", lambda e: gap(e).get("one_over_rate"))
+    scalar("inter_impact_mean_error_estimate", lambda e: est(gap(e)))
+    fp = lambda e: e.get("first_passage") or {}                    # noqa: E731
+    scalar("first_passage_mean", lambda e: fp(e).get("mean"))
+    scalar("first_passage_mean_se", lambda e: fp(e).get("mean_se"))
+    walls = sorted({w for row in entries for e in row for w in e.get("impact_energy", {})})
+    if walls:
+        for name, get in (("impact_energy_mean", lambda r: r.get("mean")),
+                          ("impact_energy_mean_se", lambda r: r.get("mean_se")),
+                          ("impact_energy_mean_error_estimate", est)):
+            arr = np.full(shape + (len(walls),), np.nan)
+            for i, row in enumerate(entries):
+                for j, e in enumerate(row):
+                    for k, w in enumerate(walls):
+                        v = get(e.get("impact_energy", {}).get(w) or {})
+                        if isinstance(v, (int, float)):
+                            arr[i, j, k] = v
+            if not np.isnan(arr).all():
+                out[name] = (("point", "method", "wall"), arr)
+    runs = [(i, j, fp(e)) for i, row in enumerate(entries) for j, e in enumerate(row)
+            if fp(e).get("times")]
+    if runs:
+        n = max(len(r["times"]) for _, _, r in runs)
+        t, R = np.full(shape + (n,), np.nan), np.full(shape + (n,), np.nan)
+        for i, j, r in runs:
+            t[i, j, :len(r["times"])], R[i, j, :len(r["survival"])] = r["times"], r["survival"]
+        dims = ("point", "method", "reliability_index")
+        out["reliability_time"], out["reliability"] = (dims, t), (dims, R)
+    out.update(_impact_densities(out_dir, len(points), methods, walls))
+    return out
+
+
+def _impact_densities(out_dir: Path, n_points: int, methods: list[str], walls: list[str]
+                      ) -> dict[str, Any]:
+    """pdf_inter_impact(point, method, inter_impact_index) and pdf_impact_energy(point,
+    method, wall, impact_energy_index) with their grids, from densities.npz."""
+    f = out_dir / "densities.npz"
+    if not f.exists():
+        return {}
+    out: dict[str, Any] = {}
+    with np.load(f) as npz:
+        for q, sides in (("inter_impact", [""]), ("impact_energy", [f"_{w}" for w in walls])):
+            keys = {(i, k, j): f"p{i}.{m}.{q}{side}" for i in range(n_points)
+                    for k, side in enumerate(sides) for j, m in enumerate(methods)
+                    if f"p{i}.{m}.{q}{side}.grid" in npz.files}
+            if not keys:
+                continue
+            n = max(npz[f"{key}.grid"].size for key in keys.values())
+            grid = np.full((n_points, len(sides), n), np.nan)
+            pdf = np.full((n_points, len(methods), len(sides), n), np.nan)
+            for (i, k, j), key in keys.items():
+                g = npz[f"{key}.grid"]
+                grid[i, k, :g.size] = g
+                pdf[i, j, k, :g.size] = npz[f"{key}.pdf"]
+            if q == "inter_impact":
+                out["inter_impact_grid"] = (("point", "inter_impact_index"), grid[:, 0])
+                out["pdf_inter_impact"] = (("point", "method", "inter_impact_index"),
+                                           pdf[:, :, 0])
+            else:
+                out["impact_energy_grid"] = (("point", "wall", "impact_energy_index"), grid)
+                out["pdf_impact_energy"] = (("point", "method", "wall",
+                                             "impact_energy_index"), pdf)
     return out
 
 

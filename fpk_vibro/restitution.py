@@ -160,9 +160,10 @@ class Restitution:
             return (cls.table(data["speeds"], data["values"]) if law == "table"
                     else cls.tanh(data["r0"], data["r1"], data["u0"]))
         except InputError as exc:
-            raise InputError(f"{where}: {name}.{exc.name} {exc.rule}" if exc.name in keys
-                             else f"{where}: {name}: {exc.rule}", where=where,
-                             name=name) from None
+            key = f"{name}.{exc.name}" if exc.name in keys else name
+            text = exc.keyed(key) if exc.name in keys else f"{key}: {exc.rule}"
+            raise InputError(f"{where}: {text}" if where else text, where=where,
+                             name=key) from None
 
     # -- the law ------------------------------------------------------------------
     def __call__(self, u: Any) -> np.ndarray:

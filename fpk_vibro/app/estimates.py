@@ -105,6 +105,8 @@ def add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any
         if not scene.transient:
             entry.update(_estimate_record(method, sol, fem if method != "fem" else None,
                                           scene.error_estimates))
+            _impact_estimates(method, sol, entry, fem if method != "fem" else None,
+                              scene.error_estimates)
             continue
         for k, (rec, snap) in enumerate(zip(entry["at"], sol)):
             ref = fem[k] if fem is not None and method != "fem" else None
@@ -112,3 +114,58 @@ def add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any
             warning = rec.pop("warning", None)
             if warning and k == len(entry["at"]) - 1:      # one line per point
                 entry["warning"] = warning
+
+
+def _plain(est: dict[str, Any]) -> dict[str, Any]:
+    """An estimate's JSON-able entries (inf → None: no bound follows)."""
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in est.items() if isinstance(v, (int, float, str)) and k != "seconds"}
+
+
+def _own_figures(sol: Any, entry: dict[str, Any]) -> dict[str, Any] | None:
+    """The method's own estimate (made already for its moments), where it holds the
+    impact figures (Monte Carlo: ``mean_inter_impact_time``, ``mean_impact_energy_<wall>``)."""
+    if "not_computed" in entry.get("error_estimate", {"not_computed": ""}):
+        return None
+    try:
+        return sol.error_estimate()     # made once, then kept on the solution
+    except NOT_MADE:
+        return None
+
+
+def _impact_estimates(method: str, sol: Any, entry: dict[str, Any], reference: Any,
+                      how: str) -> None:
+    """The estimates of the inter-impact mean and of the mean energy per impact into
+    their records (relative): Monte Carlo's own (statistics and time-step bias),
+    averaging's against the scene's FE answer (or an FE solve for "fem-check"); a
+    method without one says so (``not_computed``)."""
+    gaps, energy = entry.get("inter_impact", {}), entry.get("impact_energy", {})
+    wanted = ("mean" in gaps) or any("mean" in v for v in energy.values())
+    if how == "none" or not wanted:
+        return
+    own = _own_figures(sol, entry) if method != "averaging" else None
+    none = f"{method} gives no estimate of this figure"
+    if "mean" in gaps:
+        if own is not None and "mean_inter_impact_time" in own:
+            gaps["error_estimate"] = _plain({"mean": float(own["mean_inter_impact_time"]),
+                                             "assumes": own.get("assumes", "")})
+        elif method == "averaging" and (reference is not None or how == "fem-check"):
+            try:
+                gaps["error_estimate"] = _plain(sol.inter_impact_estimate(reference))
+            except NOT_MADE as exc:
+                gaps.update(_not_made(exc))
+        else:
+            why = (f"{method}: the inter-impact model error needs an FE answer: add fem to "
+                   "the scene or set study.error_estimates = \"fem-check\""
+                   if method == "averaging" else none + " (its identity residual is "
+                   "'identity')")
+            gaps["error_estimate"] = {"not_computed": why}
+    for side, rec in energy.items():
+        if "mean" not in rec or rec.get("elastic"):
+            continue
+        key = f"mean_impact_energy_{side}"
+        if own is not None and key in own:
+            rec["error_estimate"] = _plain({"mean": float(own[key]),
+                                            "assumes": own.get("assumes", "")})
+        else:
+            rec["error_estimate"] = {"not_computed": none}

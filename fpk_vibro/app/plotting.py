@@ -118,7 +118,7 @@ def _draw_walls(ax, system) -> None:
     """Each wall as a thick grey line at its position, labelled with its r."""
     for side, w in system.walls:
         ax.axvline(w.position, color="0.35", lw=2.2, zorder=5)
-        ax.annotate(f"r = {w.r:g}", (w.position, 1.0), xycoords=("data", "axes fraction"),
+        ax.annotate(f"r = {w.r:g}" if w.law is None else "r(u)", (w.position, 1.0), xycoords=("data", "axes fraction"),
                     ha="left" if side == "left" else "right", va="top", fontsize=7,
                     color="0.2", xytext=(3 if side == "left" else -3, -2),
                     textcoords="offset points",

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..keys import moment_scale
+from .impact_plots import law_label
 from .plotting import _STYLE, METHOD_NAMES, _Figures, _pyplot, _sampled, _save
 
 __all__ = ["impact_speeds", "reliability", "moment_history", "sweep_overlay", "sweep_moments"]
@@ -55,14 +56,15 @@ def impact_speeds(solutions: dict, path, *, title: str = "") -> Path:
                 pass
         ax.set_xlabel(r"impact speed $u$ (m/s)")
         ax.set_ylabel(r"probability density $f(u)$ (s/m)")
-        ax.set_title(f"{side} wall, r = {getattr(system, side).r:g}", fontsize=9)
+        ax.set_title(f"{side} wall, {law_label(getattr(system, side))}", fontsize=9)
         ax.legend(frameon=False, fontsize=8)
     fig.suptitle(title, fontsize=9)
     return _save(fig, path)
 
 
 def reliability(passages: dict, path, *, title: str = "") -> Path:
-    """R(t) = P(T > t) of each method (Monte Carlo with its 95 % band)."""
+    """R(t) = P(T > t) of each method (Monte Carlo with its 95 % band); the title names
+    the safe set (:meth:`fpk_vibro.safe_sets.SafeSet.describe`)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
     t_end = max(float(fp.times[-1]) for fp in passages.values())
@@ -76,7 +78,9 @@ def reliability(passages: dict, path, *, title: str = "") -> Path:
     ax.set_xlabel("time $t$ (s)")
     ax.set_ylabel(r"reliability $R(t) = P(T > t)$")
     fp0 = next(iter(passages.values()))
-    ax.set_title(f"{title}: first passage of H = {fp0.energy:g}", fontsize=9)
+    safe = getattr(fp0, "safe_set", None)
+    where = safe.describe() if safe is not None else f"H < {fp0.energy:g}"
+    ax.set_title(f"{title}: first passage out of {where}", fontsize=9)
     ax.legend(frameon=False, fontsize=8)
     return _save(fig, path)
 

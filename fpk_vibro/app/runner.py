@@ -35,6 +35,8 @@ from .plan import first_passage_kwargs, resolved_options, solver_kwargs
 from .results import storage_failed, write_results
 from .resume import (clear_outputs, clear_temporaries, fingerprint, seal, select,
                      storage_fault)
+from .impact_records import impact_arrays, impact_energy_record, inter_impact_record
+from .scene_impacts import safe_set_keyword
 from .scenes import Scene, check_scene
 
 __all__ = ["run_scene", "run_point", "grids_for"]
@@ -106,12 +108,17 @@ def _engineering(scene: Scene, method: str, system: VibroImpactSystem, sol: Any,
         out["power_balance"] = sol.power_balance()
     except NotImplementedError:
         pass
+    if "inter_impact" in scene.quantities:
+        out["inter_impact"] = inter_impact_record(sol)
+    if "impact_energy" in scene.quantities:
+        out["impact_energy"] = impact_energy_record(sol)
     m = methods()[method]
     if scene.first_passage is not None and "first_passage" in m.modes:
         fp = scene.first_passage
         kw = first_passage_kwargs(scene, method)   # the table's first-passage keys
         start = fp["start"] if fp["start"] == "stationary" else tuple(fp["start"])
-        passages[method] = m.solver("first_passage")(system, energy=fp["energy"], start=start,
+        kind, value = safe_set_keyword(fp)
+        passages[method] = m.solver("first_passage")(system, **{kind: value}, start=start,
                                                      times=fp["times"], **kw)
         out["first_passage"] = passages[method].to_dict()
     return out
@@ -121,7 +128,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
               out_dir: Path, progress: bool | None = False, token: str | None = None
               ) -> dict[str, Any]:
     """All requested methods at one sweep point; writes ``points/p{index}.json`` and the data."""
-    from . import plotting, run_plots
+    from . import impact_plots, plotting, run_plots
 
     record: dict[str, Any] = {"index": index, "parameters": params, "status": "done",
                               "fingerprint": fingerprint(scene, index, params, system),
@@ -178,8 +185,12 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                     snapshots, grids, want_density, out_dir,
                     f"p{index}" if k is None else f"p{index}_t{k}",
                     title if t is None else f"{title}, t = {t:g}")]
+    if not scene.transient:
+        impacts = impact_arrays(scene.quantities, solutions, record["methods"], index,
+                                lambda m: methods()[m].sampled)
+        arrays.update(impacts)
     if "png" in scene.formats and ("impacts" in scene.quantities and system.has_barrier
-                                   or passages):
+                                   or passages or not scene.transient and impacts):
         figs = record.setdefault("figures", [])
         if "impacts" in scene.quantities and system.has_barrier:
             figs.append(run_plots.impact_speeds(solutions, out_dir / f"p{index}_impact_speed.png",
@@ -187,6 +198,9 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         if passages:
             figs.append(run_plots.reliability(passages, out_dir / f"p{index}_reliability.png",
                                              title=scene.name).name)
+        if not scene.transient:
+            figs += [p.name for p in impact_plots.point_figures(
+                impacts, record["methods"], system, out_dir, index, scene.name)]
     if scene.transient and "png" in scene.formats and "moments" in scene.quantities:
         figs = record.setdefault("figures", [])
         for key in ("E_H", "E_x2", "E_y2"):

@@ -11,11 +11,12 @@ import math
 from typing import Any
 
 from .._checks import InputError, check_float, closest, invalid
-from ..registry import methods
+from ..registry import QUANTITIES as _REGISTRY_QUANTITIES, methods
 from ..model import FIELDS, WALL_FIELDS
 from ..options import REQUIRED, Option, PerMode
 
-__all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "FORMATS", "ERROR_ESTIMATES", "SWEEPABLE", "STUDY_KEYS",
+__all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "IMPACT_QUANTITIES", "LAW_PARAMETERS",
+           "FORMATS", "ERROR_ESTIMATES", "SWEEPABLE", "STUDY_KEYS",
            "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option",
            "method_names", "method_tables", "tables"]
 
@@ -23,19 +24,38 @@ __all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "FORMATS", "ERROR_ESTIMAT
 #: The methods registered when the package loads (fpk_vibro.registry); a scene
 #: accepts every method registered when it is parsed (:func:`method_names`).
 METHODS = tuple(methods())
-QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage")
+QUANTITIES = _REGISTRY_QUANTITIES
 #: Quantities of a stationary scene only.
-STATIONARY_ONLY = ("impacts", "first_passage")
+STATIONARY_ONLY = ("impacts", "first_passage", "inter_impact", "impact_energy")
+#: Quantities about impacts: they need a system with a wall.
+IMPACT_QUANTITIES = ("impacts", "inter_impact", "impact_energy")
 FORMATS = ("json", "npz", "png", "vtu", "nc")
 #: study.error_estimates: how each answer's error is estimated (fpk_vibro.app.estimates).
 ERROR_ESTIMATES = ("auto", "fem-check", "none")
+#: The parameters of a restitution law a sweep may change (a tanh law's; a table's
+#: points are not swept), with the range of each alone (the law checks them together).
+LAW_PARAMETERS = {
+    "r0": Option(None, "r0 of the tanh law r0 − r1 tanh(u/u0): r at rest", "float",
+                 lo=0.0, hi=1.0, lo_open=False),
+    "r1": Option(None, "r1 of the tanh law: the fall of r from rest to high speed",
+                 "float", lo=-1.0, hi=1.0, lo_open=False),
+    "u0": Option(None, "u0 of the tanh law: the speed over which r changes", "float",
+                 lo=0.0, lo_open=True, unit="m/s"),
+}
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
-             "right.position", "right.r")
+             "right.position", "right.r") + tuple(
+    f"{wall}r.{k}" for wall in ("", "left.", "right.") for k in LAW_PARAMETERS)
 
 
 def sweep_option(p: str) -> Option:
-    """The declaration a swept value is checked against (a model or a wall field)."""
-    return WALL_FIELDS[p.split(".")[1]] if "." in p else FIELDS[p]
+    """The declaration a swept value is checked against (a model or a wall field, or a
+    parameter of a law: ``r.r1``, ``left.r.u0``)."""
+    parts = p.split(".")
+    if parts[-1] in LAW_PARAMETERS and len(parts) >= 2 and parts[-2] == "r":
+        return LAW_PARAMETERS[parts[-1]]
+    return WALL_FIELDS[parts[1]] if len(parts) > 1 else FIELDS[p]
+
+
 class SceneError(InputError):
     """An invalid scene: the message names the key and what is allowed."""
 
@@ -86,6 +106,12 @@ def _times(name: str, v: Any, where: str | None) -> tuple[float, ...]:
                       "numbers >= 0", v) from None
 
 
+def _displacement(name: str, v: Any, where: str | None) -> Any:
+    if isinstance(v, list):
+        return _numbers(2)(name, v, where)
+    return check_float(name, v, 0.0, where=where)
+
+
 def _start(name: str, v: Any, where: str | None) -> Any:
     if v == "stationary":
         return v
@@ -124,9 +150,18 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
                       allowed="list of two numbers >= 0", auto="none"),
     },
     "first_passage": {
-        "energy": Option(None, "critical energy H_c of the safe set {H < H_c} "
-                         "(needed with the quantity \"first_passage\")", "float", lo=0.0,
+        "energy": Option(None, "critical energy H_c of the safe set {H < H_c} (the quantity "
+                         "\"first_passage\" needs exactly one of energy, displacement, "
+                         "impact_speed)", "float", lo=0.0,
                          lo_open=True, unit="J/kg", auto="none"),
+        "displacement": Option(None, "the safe set |x| < b (a number b) or x_lo < x < x_hi "
+                               "(a pair); a bound at or beyond a wall is never reached",
+                               "custom", check=_displacement,
+                               allowed="number > 0 or list of two numbers", unit="m",
+                               auto="none"),
+        "impact_speed": Option(None, "u_c: T is the time of the first impact faster than "
+                               "u_c (needs a wall)", "float", lo=0.0, lo_open=True,
+                               unit="m/s", auto="none"),
         "start": Option((0.0, 0.0), "where paths start: [x0, y0] or \"stationary\"",
                         "custom", check=lambda n, v, w: _start(n, v, w),
                         allowed="list of two numbers or \"stationary\""),
@@ -170,11 +205,20 @@ def table_keys(table: str) -> dict[str, Option]:
         return {k: o for k, o in _method_options(table).declared().items()
                 if o.scene in ("", "file")}
     if table == "sweep":
-        return {p: Option(None, f"list of values of {p}", "custom", check=_numbers(None),
+        return {p: Option(None, _sweep_doc(p), "custom", check=_numbers(None),
                           allowed="list of numbers", unit=sweep_option(p).unit,
                           auto="no sweep")
                 for p in SWEEPABLE}
     return STUDY_KEYS[table]
+
+
+def _sweep_doc(p: str) -> str:
+    parts = p.split(".")
+    if parts[-1] in LAW_PARAMETERS:
+        law = "barriers.r" if len(parts) == 2 else f"barriers.{parts[0]}.r"
+        return (f"list of values of {parts[-1]} of the tanh law {law} (each point builds "
+                "the law with it)")
+    return f"list of values of {p}"
 
 
 def __getattr__(name: str) -> Any:

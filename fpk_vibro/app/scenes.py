@@ -27,6 +27,8 @@ from ..model import FIELDS, VibroImpactSystem
 from ..options import REQUIRED
 from ..registry import methods as method_registry
 from .outdir import safe_name
+from .scene_impacts import (check_first_passage, check_law_sweep, check_laws, check_walls,
+                            first_passage_table, flatten_sweep, point_system)
 from .scene_keys import (FORMATS, METHODS, QUANTITIES, STATIONARY_ONLY, STUDY_KEYS,  # noqa: F401
                          SWEEPABLE, TABLES, SceneError, _method_options, method_tables,
                          schema_table, tables,
@@ -97,7 +99,7 @@ class Scene:
         for values in itertools.product(*(self.sweep[n] for n in names)):
             params = dict(zip(names, values))
             try:
-                out.append((params, self.system.replace(**params)))
+                out.append((params, point_system(self.system, params)))
             except InputError as exc:
                 raise SceneError(exc.keyed(f"sweep.{exc.name}", f" (at {_label(params)})"),
                                  name=f"sweep.{exc.name}") from None
@@ -141,9 +143,9 @@ def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
     for table in tables():
         given = data.get(table, {})
         if table == "sweep":      # TOML reads `left.r = [...]` as a sub-table
-            given = {(f"{k}.{kk}" if isinstance(v, dict) else k): (vv if isinstance(v, dict) else v)
-                     for k, v in given.items()
-                     for kk, vv in (v.items() if isinstance(v, dict) else [(None, v)])}
+            given = flatten_sweep(given)
+        if table == "barriers":   # a bad law: one line naming its key
+            check_laws(given)
         clean[table] = {}
         if table in method_tables():
             continue              # their Options.from_scene checks them, per mode
@@ -191,13 +193,13 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     if len(sweep) > 2:
         raise SceneError(f"sweep: at most two parameters; got {sorted(sweep)}", name="sweep")
     given_walls = [f"[barriers.{side}]" for side in ("left", "right") if bar.get(side)]
-    for k in ("delta", "r"):
-        if k in sweep and given_walls:
+    for k in [k for k in sweep if k in ("delta", "r") or k.startswith("r.")]:
+        if given_walls:
             raise SceneError(
                 f"sweep.{k}: must not be swept with explicit walls {' and '.join(given_walls)} "
                 f"(the symmetric shorthand would replace them by walls at ±delta with one r); got "
                 f"sweep.{k} = {show(list(sweep[k]))}; sweep left.position/right.position or "
-                f"left.r/right.r instead", name=f"sweep.{k}")
+                f"left.r/right.r (or left.r.r1, ...) instead", name=f"sweep.{k}")
     n_points = math.prod(len(v) for v in sweep.values()) if sweep else 1
     if n_points > budget.MAX_POINTS and not budget.forced():
         raise SceneError(f"sweep: {n_points} points; the limit is {budget.MAX_POINTS} "
@@ -210,6 +212,7 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                 field_opt.validate(k, v, None)
             except InputError as exc:
                 raise SceneError(exc.keyed(f"sweep.{k}[{i}]"), name=f"sweep.{k}") from None
+    check_law_sweep(system, sweep)
     times = study.get("times")
     mode = "transient" if times is not None else "stationary"
     numerics: dict[str, dict[str, Any]] = {}
@@ -242,19 +245,7 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                          "are stationary only; remove them or study.times",
                          name="study.quantities")
     _check_someone_gives(methods, quantities)
-    fp = clean["first_passage"]
-    if "first_passage" in quantities:
-        if fp.get("energy") is None:
-            raise SceneError("first_passage.energy: required key is missing (the quantity "
-                             "\"first_passage\" needs the critical energy H_c)",
-                             name="first_passage.energy")
-        fp = {"energy": fp["energy"], "start": fp.get("start", (0.0, 0.0)),
-              "times": fp.get("times")}
-    elif fp:
-        raise SceneError("first_passage: only used with the quantity \"first_passage\" in "
-                         "study.quantities", name="first_passage")
-    else:
-        fp = None
+    fp = first_passage_table(clean["first_passage"], quantities)
     formats = clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default)
     if "nc" in formats:
         try:
@@ -304,8 +295,12 @@ def check_scene(scene: Scene) -> list[dict[str, Any]]:
     out = []
     for params, system in scene.points():
         costs = {}
+        at = f" (at {_label(params)})" if params else ""
+        check_walls(scene.quantities, system, at)
         if scene.first_passage is not None:
-            _check_first_passage(scene, params, system)
+            registry = method_registry()
+            check_first_passage(scene.first_passage,
+                                {m: registry[m] for m in scene.methods}, system, at)
         for method in scene.methods:
             try:
                 costs[method] = plan(scene, method, system)
@@ -317,19 +312,6 @@ def check_scene(scene: Scene) -> list[dict[str, Any]]:
                 raise SceneError(exc.keyed(key, at), name=key) from None
         out.append({"parameters": params, "costs": costs})
     return out
-
-
-def _check_first_passage(scene: Scene, params: dict, system: VibroImpactSystem) -> None:
-    """The [first_passage] energy and start on this point's system."""
-    from ..first_passage import check_energy, parse_start
-    at = f" (at {_label(params)})" if params else ""
-    fp = scene.first_passage
-    try:
-        energy = check_energy("first_passage", system, fp["energy"])
-        parse_start("first_passage", system, fp["start"], energy)
-    except InputError as exc:
-        key = f"first_passage.{exc.name}"
-        raise SceneError(exc.keyed(key, at), name=key) from None
 
 
 def _scene_key(method: str, exc: InputError) -> str:
