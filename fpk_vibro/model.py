@@ -24,6 +24,7 @@ import numpy as np
 
 from ._checks import InputError, check_float, invalid
 from .option_schema import REQUIRED, Option
+from .forcing import Harmonic
 from .restitution import Restitution
 from .wall import R_ALLOWED, WALL_FIELDS, Wall
 
@@ -61,6 +62,9 @@ FIELDS: dict[str, Option] = {
                     "custom", check=lambda n, v, w: Wall.of(v, n, w),
                     allowed="a table {position, r}", scene="barriers.right",
                     auto="from delta, r, sides"),
+    "forcing": Option(None, "harmonic forcing F cos(Ωt + φ0) (none by default)", "custom",
+                      check=lambda n, v, w: Harmonic.of(v, w, n),
+                      allowed="a table {amplitude, frequency, phase}", scene="forcing"),
 }
 #: The fields that make the symmetric shorthand, and their defaults.
 SHORTHAND = {"delta": None, "r": 1.0, "barriers": "both"}
@@ -105,6 +109,10 @@ class VibroImpactSystem:
         where they can (``delta`` None unless the walls are at ±Δ or there is one wall
         at a positive +Δ / negative −Δ; ``r`` None when the walls differ).
 
+    forcing : Harmonic or None
+        Deterministic forcing F cos(Ωt + φ0) (:mod:`fpk_vibro.forcing`); the response
+        is then periodic in time (``fem.periodic``, ``montecarlo.periodic``).
+
     Raises
     ------
     ValueError
@@ -131,9 +139,12 @@ class VibroImpactSystem:
     barriers: str = "both"
     left: Wall | None = None
     right: Wall | None = None
+    forcing: Harmonic | None = None
 
     def __post_init__(self) -> None:
         where = "VibroImpactSystem"
+        object.__setattr__(self, "forcing", FIELDS["forcing"].validate(
+            "forcing", self.forcing, where))
         for name in ("a", "b", "c", "D1", "D2"):
             object.__setattr__(self, name, FIELDS[name].validate(name, getattr(self, name), where))
         left, right = Wall.of(self.left, "left"), Wall.of(self.right, "right")
@@ -212,7 +223,7 @@ class VibroImpactSystem:
         if "left" in overrides or "right" in overrides:      # walls instead of ±Δ
             for name in SHORTHAND:
                 fields.pop(name)
-        unknown = set(overrides) - set(fields) - {"left", "right"}
+        unknown = set(overrides) - set(fields) - {"left", "right", "forcing"}
         if unknown:
             raise ValueError(f"VibroImpactSystem.paper: unknown field(s) {sorted(unknown)}; "
                              f"allowed: {sorted(fields)}")
@@ -227,6 +238,16 @@ class VibroImpactSystem:
         dotted name: ``replace(**{"left.r": 0.5})``.
         """
         walls = {"left": self.left, "right": self.right}
+        forcing = [k for k in changes if k.startswith("forcing.")]
+        if forcing:
+            if self.forcing is None and "forcing" not in changes:
+                raise invalid("VibroImpactSystem.replace", forcing[0], "a change of the "
+                              "system's forcing", changes[forcing[0]], "it has no forcing")
+            base = Harmonic.of(changes.pop("forcing", None) or self.forcing)
+            table = base.to_dict()
+            for key in forcing:
+                table[key.split(".", 1)[1]] = changes.pop(key)
+            changes["forcing"] = Harmonic.of(table, "VibroImpactSystem.replace")
         for key in [k for k in changes if "." in k]:
             side, attr = key.split(".", 1)
             if side not in walls or attr not in WALL_FIELDS:
@@ -259,6 +280,10 @@ class VibroImpactSystem:
         for side in ("left", "right"):
             if out[side] is not None:
                 out[side] = out[side].to_dict()
+        if out["forcing"] is not None:
+            out["forcing"] = out["forcing"].to_dict()
+        else:
+            del out["forcing"]              # (files of unforced systems as before)
         return out
 
     @classmethod
@@ -361,11 +386,23 @@ class VibroImpactSystem:
         if self.D2 != 0:
             out.append("parametric_noise")
         out += [f"impact_{side}" for side, _ in self.walls[::-1]]
+        if self.forcing is not None:
+            out.append("harmonic_forcing")
         return out
 
 
-def check_system(where: str, system: Any) -> VibroImpactSystem:
-    """``system`` if it is a :class:`VibroImpactSystem`, else a one-line error."""
+#: Where a forced system is solved (the solvers that take ``forcing``).
+FORCED_SOLVERS = "fem.periodic, montecarlo.periodic and the transients of fem and montecarlo"
+
+
+def check_system(where: str, system: Any, *, forcing: bool = False) -> VibroImpactSystem:
+    """``system`` if it is a :class:`VibroImpactSystem`, else a one-line error; a system
+    with harmonic forcing too, unless the caller handles ``forcing`` (a forced system
+    has no stationary density and no time-invariant first passage)."""
     if not isinstance(system, VibroImpactSystem):
         raise invalid(where, "system", "a VibroImpactSystem", system)
+    if system.forcing is not None and not forcing:
+        raise InputError(f"{where}: does not handle harmonic forcing (the response is "
+                         f"periodic, not stationary); use {FORCED_SOLVERS}", where=where,
+                         name="forcing")
     return system

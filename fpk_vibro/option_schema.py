@@ -48,16 +48,20 @@ class PerMode:
     """A default (or reduced size) that differs between the modes.
 
     ``first_passage`` is the stationary value unless given (first passage runs from
-    a stationary scene).
+    a stationary scene); ``periodic`` (the periodic response to harmonic forcing) the
+    transient value unless given (both march in time).
     """
     stationary: Any
     transient: Any
     first_passage: Any = _SAME
+    periodic: Any = _SAME
 
     def of(self, mode: str) -> Any:
         """The value for ``mode`` (one of :data:`MODES`)."""
         if mode == "first_passage" and self.first_passage is _SAME:
             return self.stationary
+        if mode == "periodic" and self.periodic is _SAME:
+            return self.transient
         return getattr(self, mode)
 
     def __repr__(self) -> str:

@@ -43,6 +43,9 @@ class Options:
     """
 
     WHERE: ClassVar[str] = ""
+    #: The modes whose solver handles harmonic forcing (the others refuse a forced
+    #: system in one line: :func:`fpk_vibro.model.check_system`).
+    FORCED_MODES: ClassVar[tuple[str, ...]] = ()
 
     @classmethod
     def declared(cls) -> dict[str, Option]:
@@ -124,7 +127,7 @@ class Options:
         from .budget import enforce
         from .model import check_system
         where = f"{cls.WHERE}.{mode}"
-        check_system(where, system)
+        check_system(where, system, forcing=mode in cls.FORCED_MODES)
         opts = cls.from_call(mode, values)
         opts.validate_for(system, mode, probe=probe)
         if initial is not None and hasattr(opts, "validate_initial"):

@@ -46,7 +46,8 @@ def test_first_passage_is_a_mode():
 
 
 @pytest.mark.parametrize("Options, names", [
-    (mc.Options, {"n_paths", "dt", "t_max", "seed", "threads", "progress", "bridge"}),
+    (mc.Options, {"n_paths", "dt", "t_max", "seed", "threads", "progress", "bridge",
+                  "device"}),
     (fem.Options, {"nx", "ny", "degree", "n_steps", "rtol"}),
     (averaging.Options, {"n_grid", "n_cells"}),
 ])

@@ -237,8 +237,8 @@ def test_interrupt_returns_partial(monkeypatch):
     real = _kernel.advance
     calls = {"n": 0}
 
-    def flaky(*args):
-        real(*args)
+    def flaky(*args, **kwargs):
+        real(*args, **kwargs)
         calls["n"] += 1
         if args[6] > 0 and calls["n"] >= 3:      # during sampling
             raise KeyboardInterrupt
@@ -296,7 +296,7 @@ def test_transient_start_and_relaxation():
 def test_bad_inputs_raise_before_work(kwargs, match, monkeypatch):
     from fpk_vibro.montecarlo import _kernel
 
-    def boom(*a):
+    def boom(*a, **kw):
         raise AssertionError("kernel ran before validation")
 
     monkeypatch.setattr(_kernel, "advance", boom)

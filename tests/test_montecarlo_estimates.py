@@ -221,11 +221,11 @@ def test_an_interrupted_transient_keeps_two_standard_errors(monkeypatch):
     real = _kernel.advance
     seen = {"n": 0}
 
-    def interrupted(*args):
+    def interrupted(*args, **kwargs):
         seen["n"] += 1
         if seen["n"] > 1:                # during the second interval
             raise KeyboardInterrupt
-        real(*args)
+        real(*args, **kwargs)
 
     monkeypatch.setattr(_kernel, "advance", interrupted)
     run = montecarlo.transient(VibroImpactSystem.paper(), initial={"mean": (0.1, 0.2),

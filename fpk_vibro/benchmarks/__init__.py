@@ -34,7 +34,8 @@ class Benchmark(NamedTuple):
 BENCHMARKS: dict[str, Benchmark] = {
     "averaging": Benchmark("averaging", "wall time of the stationary averaged solution"),
     "montecarlo": Benchmark("montecarlo", "kernel rates, time-step bias, wall time, "
-                                          "first-passage kernel"),
+                                          "first-passage kernel; --device cuda: the GPU "
+                                          "against the CPU threads"),
     "fem": Benchmark("fem_rtol", "what accuracy costs: rtol against error, estimate, seconds"),
     "fem-scale": Benchmark("fem_scale", "DOFs and solvers on the exact case up to 10⁶ DOFs; AMG"),
     "fem-transient": Benchmark("fem_transient", "the FE transient on the paper packet"),

@@ -221,7 +221,24 @@ def wall_time(rse=1e-3):
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the benchmark; returns 0 (targets are reported, not asserted)."""
+    """Run the benchmark; returns 0 (targets are reported, not asserted).
+    ``--device cuda``: the GPU benchmark instead (:mod:`.montecarlo_cuda`, which takes
+    the remaining arguments)."""
+    argv = list(argv) if argv is not None else None
+    import sys
+    rest = list(sys.argv[1:] if argv is None else argv)
+    if "--device" in rest:
+        k = rest.index("--device")
+        device = rest[k + 1] if k + 1 < len(rest) else ""
+        if device not in ("cpu", "cuda"):
+            print("fpk-vibro bench montecarlo: --device must be cpu or cuda; got "
+                  f"{device!r}", file=sys.stderr)
+            return 2
+        del rest[k:k + 2]
+        if device == "cuda":
+            from . import montecarlo_cuda
+            return montecarlo_cuda.main(rest) or 0
+        argv = rest
     ap = argparse.ArgumentParser(prog="fpk-vibro bench montecarlo",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true",

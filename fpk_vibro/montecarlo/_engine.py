@@ -7,10 +7,12 @@ from typing import Any
 
 import numpy as np
 
+from .._checks import InputError
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem
 from . import _kernel as K
 from . import _setup as S
+from ._paired import stationary_pairs
 from ._summary import _check_finite, _ratio, _reduce
 from .estimate import interruption_note, shared_second_run
 from .options import Options
@@ -25,23 +27,35 @@ TransientRun = TransientResult
 
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
                 hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
-                frac=None, threads=None, walls=None, law=None, extra=None, last=None):
+                frac=None, threads=None, walls=None, law=None, extra=None, last=None,
+                ens=None, t0=0.0):
     """Advance in chunks of ~CHUNK_PATH_STEPS path-steps; returns steps done.
+
+    ``ens``: a :class:`._cuda_engine.Ensemble` (device "cuda") advances the paths
+    instead of the CPU kernel, in chunks of its ``chunk_path_steps``, adding into
+    the same arrays (its wall losses into ``extra[..., X_E]``).
 
     ``stop()`` (checked after every chunk) ends the loop early when True;
     ``frac(done)`` overrides the completed fraction shown by the progress line;
     ``law``, ``extra``, ``last``: as :func:`._kernel.advance` takes them (``law`` is
-    needed for a wall whose r depends on the impact speed).
+    needed for a wall whose r depends on the impact speed); ``t0`` the time of the
+    states on entry (the phase of a harmonic forcing).
     """
-    chunk = max(1, S.CHUNK_PATH_STEPS // max(n_paths, 1))
+    per = S.CHUNK_PATH_STEPS if ens is None else ens.chunk_path_steps
+    chunk = max(1, per // max(n_paths, 1))
     if sample_every > 0:
         chunk = max(sample_every, chunk // sample_every * sample_every)
     done = 0
     while done < n_steps:
         n = min(chunk, n_steps - done)
-        K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
-                  xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu, law,
-                  extra, last, hist.he, hist.hg)
+        if ens is None:
+            K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
+                      xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu,
+                      law, extra, last, hist.he, hist.hg, t0=t0 + done * 2.0 * p.hh)
+        else:           # (the GPU step has no forcing: refused before, in _ensemble)
+            ens.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom,
+                        imp, xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls,
+                        hist.hu, law, extra, last, hist.he, hist.hg)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -49,6 +63,26 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
         if stop is not None and stop():
             break
     return done
+
+
+def _ensemble(system, opts, mode, xs, ys, child):
+    """(Ensemble or None, the device's name for ``info["device"]``): the option
+    ``device`` resolved (:func:`._device.resolve`: "cuda" without a GPU is refused in
+    one line); on "cuda" the paths move to the GPU with a stream seeded from
+    ``child``."""
+    from . import _device
+    where = f"montecarlo.{mode}"
+    if getattr(system, "forcing", None) is not None:
+        if opts.device == "cuda":
+            raise InputError(f"{where}: device: the GPU engine has no forcing yet; use "
+                             "device = \"cpu\"", where=where, name="device")
+        return None, "cpu"
+    if _device.resolve(opts.device, where) == "cpu":
+        return None, "cpu"
+    from . import _cuda_engine
+    from ._cuda_rng import seed_of
+    return (_cuda_engine.Ensemble(system, xs, ys, seed_of(child)),
+            _device.describe()["gpu"])
 
 
 def _gap_range(extra: np.ndarray, t_burn: float) -> float:
@@ -68,7 +102,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                n_batches: int = 32, target_rse: float = 0.005,
                max_t_sample: float | None = None, sample_every: int | None = None,
                max_impacts: int = 64, progress: bool | None = None,
-               threads: int | None = None) -> MonteCarloSolution:
+               threads: int | None = None, device: str = "cpu") -> MonteCarloSolution:
     """Stationary densities and moments by time-and-ensemble averages (docs/theory.md, §Monte Carlo).
 
     Parameters
@@ -140,6 +174,13 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     threads : int, optional
         Worker threads over the batches; default :func:`numba.get_num_threads`
         (all cores unless set otherwise).  The result does not depend on it.
+    device : {"cpu", "cuda", "auto"}, default "cpu"
+        "cuda": the paths run on an NVIDIA GPU (:mod:`._cuda_engine`; needs the
+        ``gpu`` extra), in launches of bounded size, with the same estimators and
+        result type (``info["device"]`` names the GPU); its random streams differ
+        from the CPU's, so the numbers agree within their standard errors.  "auto":
+        the GPU when one is usable, else the CPU.  Without a GPU "cuda" is refused
+        in one line.  Forced systems run on the CPU only.
 
     Returns
     -------
@@ -172,6 +213,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     starts = S.block_starts(n_paths, n_batches)
     xs = np.full(n_paths, S.initial_x(system))
     ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
+    ens, device = _ensemble(system, opts, "stationary", xs, ys, children[0])
     p, ip = S.step_params(system, dt, max_impacts)
     law = S.wall_laws(system)
     mom = np.zeros((n_batches, K.NM))
@@ -180,8 +222,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     extra = np.zeros((n_batches, 2, K.NX))
     # each path's last impact (time, wall), tracked from the burn-in on: every impact
     # sampled then has the gap before it (:mod:`._summary`)
-    last = np.tile([-np.inf, 0.0], (n_paths, 1)) if "inter_impact" in quantities \
-        else None
+    last = (np.tile([-np.inf, 0.0], (n_paths, 1)) if ens is None else True) \
+        if "inter_impact" in quantities else None
     xext = np.tile([np.inf, -np.inf], (n_batches, 1))
     none = S.Histograms(system, (), bins, n_batches, 1.0)
     prog = S.Progress(progress, "stationary")
@@ -189,7 +231,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     try:
         _run_chunks(xs, ys, rng, starts, n_burn, 0, 0, p, ip, mom, imp, xext, none,
                     n_paths, prog, "burn-in", (0.0, 0.1), threads=threads, law=law,
-                    extra=extra, last=last)
+                    extra=extra, last=last, ens=ens)
     except KeyboardInterrupt:
         prog.close("(interrupted during burn-in: nothing sampled)")
         raise
@@ -228,7 +270,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         _run_chunks(xs, ys, rng, starts, n_samp, 0, sample_every, p, ip, mom, imp, xext,
                     hist, n_paths, prog, "sampling", (0.1, 1.0), stop=reached,
                     frac=fraction, threads=threads, walls=wimp, law=law, extra=extra,
-                    last=last)
+                    last=last, ens=ens)
     except KeyboardInterrupt:
         partial = True
         interruption_note("\n[montecarlo] interrupted: returning the samples taken so far "
@@ -242,13 +284,14 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
                 t_sample=t_done, time=None, seed_entropy=ss.entropy, partial=partial,
                 sample_every=sample_every, quantities=list(quantities),
                 mode=system.barriers, target_rse=target_rse if adaptive else None,
-                spawn_key=list(ss.spawn_key))
+                spawn_key=list(ss.spawn_key), device=device)
     sol = _reduce(system, hist, mom, imp, xext, dt, meta, wimp, extra)
     sol._progress = progress           # the estimate's second run shows it the same way
     return sol
 
 
 MonteCarloSolution.rerun = staticmethod(stationary)
+MonteCarloSolution.rerun_paired = staticmethod(stationary_pairs)
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
@@ -256,13 +299,15 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               seed: int | np.random.SeedSequence | None = None,
               quantities: Sequence[str] = QUANTITIES, bins: int | dict = 60,
               n_batches: int = 32, max_impacts: int = 64,
-              progress: bool | None = None, threads: int | None = None) -> TransientRun:
+              progress: bool | None = None, threads: int | None = None,
+              device: str = "cpu") -> TransientRun:
     """Ensemble densities at given times from an initial density (docs/theory.md, §Monte Carlo).
 
     Parameters
     ----------
     system : VibroImpactSystem
     initial : dict or callable
+        At t = 0 (a forced system's phase there is φ0):
         ``{"mean": (x0, y0), "std": (sx, sy)}`` (x truncated to the strip, std 0 =
         exactly that value) or ``initial(n, rng)`` returning samples; see
         :mod:`fpk_vibro.initial`.
@@ -272,7 +317,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     n_paths : int, default 4096
     dt : float, optional
         Largest time step; default as in :func:`stationary`.
-    seed, quantities, n_batches, max_impacts, progress, threads
+    seed, quantities, n_batches, max_impacts, progress, threads, device
         As in :func:`stationary` ("impacts", "impact_energy" and "inter_impact"
         excepted: stationary only).
     bins : int or dict, default 60
@@ -308,6 +353,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     starts = S.block_starts(n_paths, n_batches)
     xs, ys = init.sample(n_paths, gen)
     xs, ys = np.ascontiguousarray(xs, dtype=float), np.ascontiguousarray(ys, dtype=float)
+    ens, device = _ensemble(system, opts, "transient", xs, ys, children[0])
     none = S.Histograms(system, (), bins, n_batches, 1.0)
     law = S.wall_laws(system)
     gmin = S.potential_min(system)
@@ -330,7 +376,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             frac = (t_now / tarr[-1], t / tarr[-1]) if tarr[-1] > 0 else (0.0, 1.0)
             _run_chunks(xs, ys, rng, starts, n, 0, 0, p, ip, mom, imp, xext, none,
                         n_paths, prog, f"t={t:g}", frac, threads=threads, walls=wimp,
-                        law=law, extra=extra)
+                        law=law, extra=extra, ens=ens, t0=t_now)
             t_now = float(t)
             H = system.energy(xs, ys)
             H_max = float(H.max())
@@ -342,7 +388,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             meta = dict(n_paths=n_paths, n_batches=n_batches, t_burn=0.0, t_sample=0.0,
                         time=t_now, seed_entropy=ss.entropy, partial=False,
                         sample_every=0, quantities=list(quantities), mode=system.barriers,
-                        initial=init.describe(), spawn_key=list(ss.spawn_key))
+                        initial=init.describe(), spawn_key=list(ss.spawn_key),
+                        device=device)
             out.append(_reduce(system, hist, mom, imp, xext, h, meta, wimp, extra))
             steps.append((tau, h))
     except KeyboardInterrupt:
@@ -356,7 +403,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             return transient(system, initial=initial, times=tarr, n_paths=n_paths, dt=dt2,
                              seed=np.random.SeedSequence(**family), quantities=(),
                              n_batches=n_batches, max_impacts=max_impacts,
-                             progress=progress, threads=threads)
+                             progress=progress, threads=threads, device=opts.device)
 
         sources = shared_second_run(again, dt, steps)
         for sol, source in zip(out, sources):

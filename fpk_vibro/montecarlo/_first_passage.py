@@ -48,6 +48,7 @@ estimate of the missing part.  R(t) is exact (empirical) up to the horizon.
 from __future__ import annotations
 
 import math
+import sys
 import time
 import warnings
 from collections.abc import Sequence
@@ -99,7 +100,7 @@ def _check_args(system, safe, start, times, values: dict[str, Any]) -> dict[str,
     return {"safe": safe, "kind": kind, "value": value, "n_paths": opts.n_paths,
             "dt": opts.resolved(system, "first_passage")["dt"], "t_max": opts.t_max,
             "seed": opts.seed, "times": requested, "threads": opts.threads,
-            "progress": opts.progress, "bridge": opts.bridge}
+            "progress": opts.progress, "bridge": opts.bridge, "device": opts.device}
 
 
 def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
@@ -107,7 +108,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
                   start: Any = (0.0, 0.0), n_paths: int = 4096, dt: float | None = None, t_max: float | None = None,
                   seed: int | np.random.SeedSequence | None = None,
                   times: Sequence[float] | None = None, threads: int | None = None,
-                  progress: bool | None = None, bridge: bool = True) -> FirstPassage:
+                  progress: bool | None = None, bridge: bool = True,
+                  device: str = "cpu") -> FirstPassage:
     """Mean first-passage time and reliability out of a safe set by simulation.
 
     Parameters
@@ -153,6 +155,12 @@ def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
         Detect crossings between step ends by the Brownian-bridge probability;
         False checks the step ends only (biased late by O(sqrt(dt)); kept for
         measuring that bias).
+    device : {"cpu", "cuda", "auto"}, default "cpu"
+        "cuda": on an NVIDIA GPU (:func:`._cuda_engine.first_passage`: no per-path
+        memory, so any ``n_paths`` fits; exit times go to a histogram of 4096 bins up
+        to the horizon, ``t_max`` or 500 relaxation times, so R(t) is exact at its
+        edges and the quantiles are read from it to a bin); "auto": the GPU when one
+        is usable.  Without a GPU "cuda" is refused in one line.
 
     Returns
     -------
@@ -201,6 +209,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
     lam = S.relaxation_rate(system)
     k_final = math.ceil((a["t_max"] if a["t_max"] is not None else T_CAP / lam) / dt - 1e-9)
     kmax = k_final if a["t_max"] is not None else min(k_final, math.ceil(T_FIRST / lam / dt))
+    from ._device import resolve
+    on_gpu = resolve(a["device"], WHERE) == "cuda"
     try:
         if a["kind"] == "point":
             xs, ys = np.full(n, a["value"][0]), np.full(n, a["value"][1])
@@ -210,6 +220,8 @@ def first_passage(system: VibroImpactSystem, *, energy: float | None = None,
         else:
             xs, ys, info["stationary_start"] = _stationary_starts(
                 system, safe, n, dt, kids[nb + 1], a["threads"], prog)
+        if on_gpu:
+            return _on_gpu(system, safe, a, xs, ys, k_final, kids[0], prog, info, ss, t0)
         T, status, counts, rounds, kmax = simulate(
             system, safe, xs, ys, dt, rng, kmax, k_final, a["threads"], a["bridge"], prog)
     except KeyboardInterrupt:
@@ -281,6 +293,74 @@ def simulate(system: VibroImpactSystem, H_c: "float | SafeSet", xs: np.ndarray, 
         kmax = min(kmax * GROWTH, k_final)
         order = alive.astype(np.int64)           # sorted: grouped by home block
         starts = np.searchsorted(order, home).astype(np.int64)
+
+
+#: Bins of the GPU's exit-time histogram.
+GPU_BINS = 4096
+
+
+def _on_gpu(system, safe, a, xs, ys, k_final, child, prog, info, ss, t0) -> FirstPassage:
+    """The run on the GPU (:func:`._cuda_engine.first_passage`) summarised as on the CPU:
+    R(t) at the histogram's edges (and, interpolated linearly within a bin, at the
+    requested times), quantiles from it, the DKW band."""
+    from . import _cuda_engine
+    from ._cuda_rng import seed_of
+    from ._device import describe
+    n, dt = a["n_paths"], a["dt"]
+    value = {"energy": safe.energy, "displacement": (safe.x_lo, safe.x_hi),
+             "impact_speed": safe.speed}[safe.kind]
+    horizon = k_final * dt
+    out = _cuda_engine.first_passage(
+        system, safe.kind, value, xs, ys, n, dt, k_final, seed_of(child),
+        horizon / GPU_BINS, n_batches=min(N_BLOCKS, n), bridge=a["bridge"],
+        progress=lambda g: prog.update(g, "GPU"))
+    prog.close()
+    n = int(out.get("n_paths", n))         # (fewer after Ctrl-C: the launches finished)
+    if out.get("partial"):
+        info["partial"] = True
+        print(f"\n[montecarlo] interrupted: first passage from the {n} paths finished",
+              file=sys.stderr)
+    grid, R = np.asarray(out["times"], dtype=float), np.asarray(out["survival"], dtype=float)
+    censored = float(out["censored"])
+    if not censored:                       # the grid ends at the last exit, as on the CPU
+        last = int(np.flatnonzero(R > 0)[-1]) + 1 if np.any(R > 0) else 0
+        grid, R = grid[:last + 1], R[:last + 1]
+    if a["times"] is not None:
+        ts = np.asarray(a["times"], dtype=float)
+        Rt = np.interp(ts, grid, R, right=R[-1] if censored else 0.0)
+        grid, idx = np.unique(np.concatenate([grid, ts]), return_index=True)
+        R = np.concatenate([R, Rt])[idx]
+    eps = math.sqrt(math.log(2.0 / 0.05) / (2.0 * n))
+    band = (np.clip(R - eps, 0.0, 1.0), np.clip(R + eps, 0.0, 1.0))
+    qs, ci = {}, {}
+    for q in QUANTILES:
+        def at(level: float) -> float:
+            below = np.flatnonzero(R <= 1.0 - level)
+            return float(grid[below[0]]) if below.size else math.inf
+        qs[q] = at(q)
+        ci[q] = (at(max(q - 1.96 * math.sqrt(q * (1 - q) / n), 0.0)),
+                 at(min(q + 1.96 * math.sqrt(q * (1 - q) / n), 1.0)))
+    info.update(n_paths=n, dt=float(dt), t_max=float(horizon), rounds=1,
+                n_censored=int(round(censored * n)), censored=censored,
+                path_steps=float(out["path_steps"]),
+                exits_by_bridge=float(out["sums"][:, 5].sum() / max(out["sums"][:, 2].sum(), 1.0)),
+                crossing=("step ends + Brownian bridge" if a["bridge"] else "step ends")
+                if safe.kind == "energy" else "located on the path" if
+                safe.kind == "displacement" else "at impacts",
+                band="95 % Dvoretzky-Kiefer-Wolfowitz (simultaneous)",
+                seed_entropy=ss.entropy, n_blocks=min(N_BLOCKS, n), quantiles=qs,
+                quantiles_ci=ci, band_halfwidth=eps, device=describe()["gpu"],
+                quantiles_from=f"a histogram of {GPU_BINS} bins to the horizon")
+    if censored:
+        warnings.warn(f"{WHERE}: {100 * censored:.3g} % of the paths were still inside "
+                      f"{safe.describe()} at t_max = {horizon:.6g}: the mean is that of "
+                      "min(T, t_max), a lower bound; raise t_max", RuntimeWarning,
+                      stacklevel=3)
+    info["seconds"] = time.perf_counter() - t0
+    return FirstPassage("montecarlo", system,
+                        float(safe.energy) if safe.kind == "energy" else None,
+                        (a["kind"], a["value"]), float(out["mean"]), float(out["mean_se"]),
+                        grid, R, band, info, safe_set=safe)
 
 
 def _gaussian_starts(system, spec, safe, n, gen) -> tuple[np.ndarray, np.ndarray]:

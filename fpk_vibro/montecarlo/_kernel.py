@@ -72,29 +72,58 @@ def _fma(typingctx, a, b, c):
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _step_full(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
-               has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext, t0, i):
+def _step_core(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
+               has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext, t0, i, gg):
     """One BAOAB step (module docstring); f = F(x) on entry and on return.
 
     Returns (x, y, f) and the wall statistics of the step as :func:`._flight._flight`
     gives them (impacts left, right, Σu left, right, Σu² left, right, Σe left, right,
     largest u); ``hu``, ``iwl``, ``iwr``, ``law``, ``ext``, ``i``: as there (``t0``
-    the step's start time).
+    the step's start time).  ``gg``: None, or (g0, g1): the kicks add the harmonic
+    force, g0 at the step's start (opening kick, and the wall force of the first
+    flight) and g1 at its end (second flight, closing kick); f stays F(x) alone.
+    (At most 30 arguments: beyond, CPython 3.11 passes them as *args, which numba
+    cannot inline.)
     """
-    y += hh * f
+    fo = f
+    flo1 = flo
+    fhi1 = fhi
+    if gg is not None:
+        g0 = gg[0]
+        fo = f + g0
+        flo1 = flo + g0
+        fhi1 = fhi + g0
+    y += hh * fo
     x, y, nl, nr, ul, ur, ql, qr, el, er, um = _flight(
-        x, y, hh, -hh, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext,
-        t0, i)
+        x, y, hh, -hh, lo, hi, flo1, fhi1, rlo, rhi, maxk, lo_t, hi_t, hu, iwl, iwr, law,
+        ext, t0, i)
     if has_d2:
         y = ec * y + math.sqrt(d1s2 + d2s2 * x * x) * z
     else:
         y = ec * y + sd0 * z
+    flo2 = flo
+    fhi2 = fhi
+    if gg is not None:
+        flo2 = flo + gg[1]
+        fhi2 = fhi + gg[1]
     x, y, nl2, nr2, ul2, ur2, ql2, qr2, el2, er2, um2 = _flight(
-        x, y, hh, 0.0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext,
-        t0 + hh, i)
+        x, y, hh, 0.0, lo, hi, flo2, fhi2, rlo, rhi, maxk, lo_t, hi_t, hu, iwl, iwr, law,
+        ext, t0 + hh, i)
     f = -(a + bcub * x * x) * x
-    return (x, y + hh * f, f, nl + nl2, nr + nr2, ul + ul2, ur + ur2, ql + ql2, qr + qr2,
+    fo = f
+    if gg is not None:
+        fo = f + gg[1]
+    return (x, y + hh * fo, f, nl + nl2, nr + nr2, ul + ul2, ur + ur2, ql + ql2, qr + qr2,
             el + el2, er + er2, max(um, um2))
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _step_full(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo, rhi,
+               has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext, t0, i):
+    """:func:`_step_core` without forcing: one BAOAB step, f = F(x) on entry and on
+    return; the wall statistics as :func:`._flight._flight` gives them."""
+    return _step_core(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, rlo,
+                      rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext, t0, i, None)
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
@@ -168,7 +197,7 @@ def _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0, d1s2, d2s2, has
 
 @njit(nogil=True, cache=True, fastmath=FASTMATH)
 def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
-               mom, imp, xext, hH, hx, hy, hj, wimp, speeds, law, extra, asked):
+               mom, imp, xext, hH, hx, hy, hj, wimp, speeds, law, extra, asked, gtab, per):
     """Block b of :func:`advance` (compiled without the GIL; :func:`advance`
     runs the blocks on a thread pool).
 
@@ -185,6 +214,12 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     where ``last`` has a row per path (each path's last impact: time relative to this
     call's start on entry, to its end on return, and wall), the gaps between impacts
     into ``extra[b]`` and ``gaps[b]`` (:mod:`._flight`).
+
+    ``gtab`` (``ip.forced``): the harmonic force at the call's step times, g_k at
+    t0 + k h (k = 0..n_steps).  The merged kick of step k (the closing kick of step
+    k − 1 and the opening kick of step k, both at t_k) adds h g_k to every path; the
+    stored v is y − (h/2)(F(x) + g) at the state's time.  ``per``: None, or the
+    periodic sampling tables of :func:`advance`.
     """
     a = p.a
     bcub = p.b
@@ -211,6 +246,21 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         ext = (extra[b], asked[1][b], asked[2][b], last, p.e_iw_left, p.e_iw_right,
                p.g_iw)
         track = last.shape[0] > 0
+    nbk = rng.shape[0]
+    if per is None:
+        pM = 0
+        slot_of = np.zeros(1, dtype=np.int64)
+        step_slot = np.zeros(1, dtype=np.int64)
+        s_avg = 1
+        mh = np.zeros((1, NM))
+        xeh = np.zeros((1, 2))
+        pimp = np.zeros((1, 2, 5))
+        e2 = np.zeros((1, 0))
+        e3 = np.zeros((1, 0, 0))
+    else:
+        pM, slot_of, step_slot, s_avg, mh, xeh, pimp, e2, e3 = per
+    avg_row = (mom.shape[0] // nbk - 1) * nbk + b
+    forced = ip.forced != 0
     h = 2.0 * hh
     el = 0.0
     er = 0.0
@@ -236,26 +286,50 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     xb = np.empty(CHUNK)
     vb = np.empty(CHUNK)
     xm = np.empty(CHUNK)
+    vk = np.empty(CHUNK)
     z = np.empty(CHUNK)
+    g0 = 0.0
+    g1 = 0.0
+    nl0, nr0, ul0, ur0, ql0, qr0, el0, er0 = 0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     end = starts[b + 1]
     for i0 in range(starts[b], end, CHUNK):
         n = min(CHUNK, end - i0)
+        if forced:
+            g0 = gtab[0]
         for j in range(n):
             x = xs[i0 + j]
             xa[j] = x
             va[j] = ys[i0 + j] + hh * (a + bcub * x * x) * x      # v = y − (h/2) F(x)
+            if forced:
+                va[j] -= hh * g0
         cnt = sample_every - step0 % sample_every if sample_every > 0 else -1
         for k in range(n_steps):
             for j in range(n):
                 z[j], s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
-            bad1, bad2 = _smooth_sweep(xa, va, xb, vb, xm, z, n, hh, ha, hb, ec, sd0,
+            vin = va
+            if forced:
+                g0 = gtab[k]
+                g1 = gtab[k + 1]
+                hg = h * g0
+                for j in range(n):
+                    vk[j] = va[j] + hg
+                vin = vk
+            if pM > 0:
+                nl0, nr0, ul0, ur0, ql0, qr0, el0, er0 = nl, nr, ul, ur, ql, qr, el, er
+            bad1, bad2 = _smooth_sweep(xa, vin, xb, vb, xm, z, n, hh, ha, hb, ec, sd0,
                                        d1s2, d2s2, has_d2, lo_t, hi_t)
             while bad2 != 0:                # an impact in the second flight only
                 j = trailing_zeros(bad2)
                 bad2 &= bad2 - 1
+                if forced:
+                    flo2 = flo + g1
+                    fhi2 = fhi + g1
+                else:
+                    flo2 = flo
+                    fhi2 = fhi
                 x, y, ml, mr, sl, sr, tl, tr, gl, gr, gm = _flight(
-                    xm[j], vb[j], hh, 0.0, lo, hi, flo, fhi, rlo, rhi, maxk, lo_t, hi_t, hu,
-                    iwl, iwr, law, ext, k * h + hh, i0 + j)
+                    xm[j], vb[j], hh, 0.0, lo, hi, flo2, fhi2, rlo, rhi, maxk, lo_t, hi_t,
+                    hu, iwl, iwr, law, ext, k * h + hh, i0 + j)
                 el += gl
                 er += gr
                 um = max(um, gm)
@@ -272,15 +346,22 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                 bad1 &= bad1 - 1
                 x = xa[j]
                 f = -(a + bcub * x * x) * x
-                x, y, f, ml, mr, sl, sr, tl, tr, gl, gr, gm = _step_full(
-                    x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi,
-                    flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr, law, ext,
-                    k * h, i0 + j)
+                if forced:
+                    x, y, f, ml, mr, sl, sr, tl, tr, gl, gr, gm = _step_core(
+                        x, va[j] + hh * (f + g0), f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub,
+                        lo, hi, flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr,
+                        law, ext, k * h, i0 + j, (g0, g1))
+                    vb[j] = y - hh * (f + g1)
+                else:
+                    x, y, f, ml, mr, sl, sr, tl, tr, gl, gr, gm = _step_full(
+                        x, va[j] + hh * f, f, z[j], hh, ec, sd0, d1s2, d2s2, a, bcub, lo,
+                        hi, flo, fhi, rlo, rhi, has_d2, maxk, lo_t, hi_t, hu, iwl, iwr,
+                        law, ext, k * h, i0 + j)
+                    vb[j] = y - hh * f
                 el += gl
                 er += gr
                 um = max(um, gm)
                 xb[j] = x
-                vb[j] = y - hh * f
                 nl += ml
                 nr += mr
                 ul += sl
@@ -289,14 +370,51 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                 qr += tr
             xa, xb = xb, xa
             va, vb = vb, va
-            cnt -= 1
-            if cnt == 0:
-                cnt = sample_every
-                _sample(xa, va, n, hh, p, b, mom, xext, hH, hx, hy, hj)
+            if pM > 0:
+                # periodic: this step's impacts to its phase slot, the new state's
+                # samples to its grid point's slots (advance)
+                gk = (step0 + k) % pM
+                ss = step_slot[gk]
+                if ss >= 0:
+                    r = ss * nbk + b
+                    pimp[r, 0, 0] += nl - nl0
+                    pimp[r, 1, 0] += nr - nr0
+                    pimp[r, 0, 1] += ul - ul0
+                    pimp[r, 1, 1] += ur - ur0
+                    pimp[r, 0, 2] += ql - ql0
+                    pimp[r, 1, 2] += qr - qr0
+                    pimp[r, 0, 3] += el - el0
+                    pimp[r, 1, 3] += er - er0
+                    pimp[r, 0, 4] += n
+                gm1 = (gk + 1) % pM
+                vs = va
+                if forced:
+                    for j in range(n):
+                        vk[j] = va[j] + hh * g1
+                    vs = vk
+                ss = slot_of[gm1]
+                if ss >= 0:
+                    _sample(xa, vs, n, hh, p, ss * nbk + b, mom, xext, hH, hx, hy, hj)
+                if gm1 % s_avg == 0:
+                    _sample(xa, vs, n, hh, p, avg_row, mom, xext, hH, hx, hy, hj)
+                    _sample(xa, vs, n, hh, p, (gm1 // s_avg) * nbk + b, mh, xeh, e2, e2,
+                            e2, e3)
+            else:
+                cnt -= 1
+                if cnt == 0:
+                    cnt = sample_every
+                    if forced:
+                        for j in range(n):
+                            vk[j] = va[j] + hh * g1
+                        _sample(xa, vk, n, hh, p, b, mom, xext, hH, hx, hy, hj)
+                    else:
+                        _sample(xa, va, n, hh, p, b, mom, xext, hH, hx, hy, hj)
         for j in range(n):
             x = xa[j]
             xs[i0 + j] = x
             ys[i0 + j] = va[j] - hh * (a + bcub * x * x) * x      # y = v + (h/2) F(x)
+            if forced:
+                ys[i0 + j] += hh * gtab[n_steps]
         if track:
             for j in range(n):
                 last[i0 + j, 0] -= n_steps * h      # relative to the call's end
@@ -319,7 +437,8 @@ def _run_block(b, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
 
 def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
             mom, imp, xext, hH, hx, hy, hj, threads=None, walls=None, speeds=None,
-            law=None, extra=None, last=None, energies=None, gaps=None):
+            law=None, extra=None, last=None, energies=None, gaps=None, t0=0.0,
+            periodic=None):
     """Advance every path by ``n_steps`` steps (in place), sampling if asked.
 
     Blocks run on ``threads`` workers (:func:`run_blocks`).  Within a block,
@@ -377,6 +496,20 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
     gaps : float64[n_blocks, 1, m], optional
         Per-block histogram of the gaps between successive impacts of a path (bin
         width 1/``p.g_iw``).  Default: not kept.
+    t0 : float, optional
+        The time of the states on entry: with forcing (``ip.forced``) the kick at
+        t_k = t0 + k h adds h F cos(Ω t_k + φ0) (the merged closing and opening
+        kicks, both at t_k; ``p.f_amp``, ``p.f_omega``, ``p.f_phase``).
+    periodic : tuple, optional
+        (M, slot_of, step_slot, s_avg, mh, xeh, pimp): phase-resolved sampling over a
+        period of M steps (:mod:`._periodic`).  ``step0`` is then the grid index of
+        the entry state (mod M) and ``sample_every`` is ignored.  After a step from
+        grid point g to g + 1 (mod M): its impacts go to ``pimp[step_slot[g]·B + b]``
+        (columns 0–3 count, Σu, Σu², Σe per side, column 4 of side 0 the path-steps);
+        the new state is sampled into row ``slot_of[g + 1]·B + b`` of ``mom``,
+        ``xext`` and the histograms (B blocks; −1: not sampled), and where
+        (g + 1) % s_avg = 0 into their last B rows (the period average) and, moments
+        only, into ``mh[((g + 1) // s_avg)·B + b]`` (``xeh`` its x range).
     """
     nb = rng.shape[0]
     if walls is None:
@@ -394,9 +527,18 @@ def advance(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
         asked = (np.zeros((0, 2)) if last is None else last,
                  np.zeros((nb, 2, 0)) if energies is None else energies,
                  np.zeros((nb, 1, 0)) if gaps is None else gaps)
+    if ip.forced:
+        gtab = p.f_amp * np.cos(p.f_omega * (t0 + 2.0 * p.hh * np.arange(n_steps + 1))
+                                + p.f_phase)
+    else:
+        gtab = np.zeros(0)
+    per = None
+    if periodic is not None:
+        per = tuple(periodic) + (np.zeros((1, 0)), np.zeros((1, 0, 0)))
+        sample_every = 0
     run_blocks(_run_block, nb, (xs, ys, rng, starts, n_steps, step0, sample_every, p, ip,
                                 mom, imp, xext, hH, hx, hy, hj, walls, speeds, law, extra,
-                                asked), threads)
+                                asked, gtab, per), threads)
 
 
 def normals_floor(rng, per_block, threads=None):

@@ -58,6 +58,9 @@ class StepParams(NamedTuple):
     e_iw_left: float = 0.0  #: inverse bin widths of the impact-energy histograms
     e_iw_right: float = 0.0
     g_iw: float = 0.0       #: inverse bin width of the inter-impact time histogram
+    f_amp: float = 0.0      #: harmonic forcing F cos(Ω t + φ0): F (0: none)
+    f_omega: float = 0.0    #: Ω
+    f_phase: float = 0.0    #: φ0
 
 
 class StepFlags(NamedTuple):
@@ -65,6 +68,7 @@ class StepFlags(NamedTuple):
     mode: int               #: which walls exist (``MODE_*``)
     has_d2: int             #: 1 with parametric noise D2 > 0
     max_impacts: int        #: impacts allowed per free-flight sub-step
+    forced: int = 0         #: 1 with harmonic forcing (the kicks add F cos(Ω t + φ0))
 
 
 def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
@@ -84,10 +88,15 @@ def step_params(system: VibroImpactSystem, dt: float, max_impacts: int
         r_right=float(pr[0]) if kr == CONSTANT else math.nan,
         barrier_energy=float(system.barrier_energy), f_lo=f_lo, f_hi=f_hi,
         r_left=float(pl[0]) if kl == CONSTANT else math.nan)
+    fo = getattr(system, "forcing", None)
+    if fo is not None:
+        p = p._replace(f_amp=float(fo.amplitude), f_omega=float(fo.frequency),
+                       f_phase=float(fo.phase))
     flags = StepFlags(
         mode={"none": MODE_NONE, "right": MODE_RIGHT, "both": MODE_BOTH,
               "left": MODE_LEFT}[system.barriers],
-        has_d2=1 if system.D2 > 0 else 0, max_impacts=int(max_impacts))
+        has_d2=1 if system.D2 > 0 else 0, max_impacts=int(max_impacts),
+        forced=1 if fo is not None else 0)
     return p, flags
 
 
@@ -109,7 +118,7 @@ def _positions(*names: str) -> tuple[int, ...]:
 # the field positions, for code that indexes the record (the tests' scalar references)
 (P_A, P_B, P_HH, P_EC, P_SD0, P_D1S2, P_D2S2, P_LO, P_HI, P_R, P_GD, P_H0, P_HIW, P_X0,
  P_XIW, P_Y0, P_YIW, P_JX0, P_JXIW, P_JY0, P_JYIW, P_FLO, P_FHI, P_RL, P_UWL,
- P_UWR, P_EWL, P_EWR, P_GW) = range(len(StepParams._fields))
+ P_UWR, P_EWL, P_EWR, P_GW, P_FAMP, P_FOMEGA, P_FPHASE) = range(len(StepParams._fields))
 NP = len(StepParams._fields)
-I_MODE, I_D2, I_MAXK = range(len(StepFlags._fields))
+I_MODE, I_D2, I_MAXK, I_FORCED = range(len(StepFlags._fields))
 NI = len(StepFlags._fields)

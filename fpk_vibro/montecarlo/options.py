@@ -13,11 +13,18 @@ from ..options import PerMode, option
 from . import _setup as S
 from .solution import ALL_QUANTITIES, IMPACT_QUANTITIES, QUANTITIES
 
+TWO_PI = 2.0 * math.pi
+
 __all__ = ["Options"]
 
-ST, TR, FP = ("stationary",), ("transient",), ("first_passage",)
-#: Every mode (densities and first passage).
-ALL = ("stationary", "transient", "first_passage")
+ST, TR, FP, PE = ("stationary",), ("transient",), ("first_passage",), ("periodic",)
+#: Every mode (densities, first passage and the periodic response).
+ALL = ("stationary", "transient", "first_passage", "periodic")
+#: The density modes and the periodic response.
+DENS = ("stationary", "transient", "periodic")
+#: Defaults of the periodic response where a PerMode has none (PerMode knows the
+#: modes stationary, transient and first passage only).
+PERIODIC_DEFAULTS = {"n_paths": 2048, "bins": 60}
 #: First horizon of an adaptive first passage, in relaxation times (its cost model).
 FP_FIRST = 10.0
 
@@ -36,6 +43,7 @@ class Options(_Options):
     :func:`~fpk_vibro.montecarlo.first_passage`."""
 
     WHERE = "montecarlo"
+    FORCED_MODES = ("transient", "periodic")
 
     n_paths: int = option(PerMode(2048, 4096, 4096), "independent paths", "int", lo=2,
                           hi=10 ** 9, reduced=512, modes=ALL)
@@ -54,12 +62,13 @@ class Options(_Options):
                        auto="fresh entropy, recorded in the result")
     quantities: tuple = option(QUANTITIES, "histograms to accumulate", "custom",
                                check=S.check_quantities, allowed=f"names from {ALL_QUANTITIES}",
-                               scene="study.quantities")
+                               scene="study.quantities", modes=DENS)
     bins: Any = option(PerMode(100, 60), "histogram bins: n for H, x, y (n/2 per axis of the "
                        "joint), or a table {quantity: count or edges}", "custom",
-                       check=S.check_bins, allowed="integer in [2, 100000] or a table")
+                       check=S.check_bins, allowed="integer in [2, 100000] or a table",
+                       modes=DENS)
     n_batches: int = option(32, "independent batches (standard errors from their spread)",
-                            "int", lo=2, hi=10 ** 6)
+                            "int", lo=2, hi=10 ** 6, modes=DENS)
     target_rse: float = option(0.005, "relative SE of E[H] at which an adaptive run stops",
                                "float", lo=0.0, hi=1.0, lo_open=True, hi_open=True, modes=ST)
     max_t_sample: float | None = option(None, "longest sampled time of an adaptive run",
@@ -68,7 +77,7 @@ class Options(_Options):
     sample_every: int | None = option(None, "steps between samples of a path", "int", lo=1,
                                       hi=10 ** 9, modes=ST, auto="about T0/4")
     max_impacts: int = option(64, "impacts handled in one free-flight sub-step", "int",
-                              lo=1, hi=10 ** 6)
+                              lo=1, hi=10 ** 6, modes=DENS)
     progress: bool | None = option(None, "a progress line on stderr", "bool", modes=ALL,
                                    scene="cli --quiet", auto="when stderr is a terminal")
     threads: int | None = option(None, "worker threads (the result does not depend on it)",
@@ -78,9 +87,42 @@ class Options(_Options):
                                  lo_open=True, unit="s", modes=FP,
                                  auto="continued until every path has exited (at most 500 "
                                       "relaxation times)")
+    device: str = option("cpu", "where the paths run: the CPU threads, an NVIDIA GPU "
+                         "(numba-cuda, pip install 'fpk-vibro[gpu]'), or auto (the GPU when "
+                         "one is usable); the same estimators, random streams of its own",
+                         "choice", choices=("cpu", "cuda", "auto"), modes=ALL)
+    phase_bin: float = option(TWO_PI / 64, "width of the phase bin each phase's statistics "
+                              "average over (0: the point value, interpolated linearly "
+                              "between the sampled instants)", "float", lo=0.0,
+                              hi=math.pi / 4, unit="rad", modes=PE)
+    n_periods: int | None = option(None, "sampled periods per path", "int", lo=1,
+                                   hi=10 ** 7, modes=PE, reduced=20,
+                                   auto="the larger of 64 periods and 40 relaxation times")
+    burn_periods: int | None = option(None, "burn-in in forcing periods", "int", lo=0,
+                                      hi=10 ** 7, modes=PE,
+                                      auto="the stationary burn-in, 6 relaxation times, "
+                                      "rounded up to whole periods")
     bridge: bool = option(True, "detect crossings between step ends by the Brownian-bridge "
                           "probability (false: step ends only, biased late)", "bool",
                           modes=FP)
+
+    @classmethod
+    def from_call(cls, mode: str, values: dict[str, Any]):
+        """:meth:`fpk_vibro.options.Options.from_call`; for "periodic" the defaults a
+        :class:`~fpk_vibro.options.PerMode` does not know come from
+        :data:`PERIODIC_DEFAULTS` (else the stationary one)."""
+        if mode != "periodic":
+            return super().from_call(mode, values)
+        where = f"{cls.WHERE}.{mode}"
+        clean = {}
+        for name, opt in cls.declared().items():
+            if name in values and mode in opt.modes:
+                clean[name] = opt.validate(name, values[name], where)
+            elif name in PERIODIC_DEFAULTS:
+                clean[name] = PERIODIC_DEFAULTS[name]
+            else:
+                clean[name] = opt.default_for("stationary")
+        return cls(**clean)
 
     # -- rules joining options ----------------------------------------------------
     def resolved(self, system: VibroImpactSystem, mode: str) -> dict[str, Any]:

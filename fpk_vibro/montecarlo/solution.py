@@ -110,6 +110,9 @@ class MonteCarloSolution(Solution):
     #: The stationary solver, for the estimate's second run; the engine sets it
     #: (fpk_vibro.montecarlo._engine), which imports this module, not the reverse.
     rerun: Any = None
+    #: The paired time-step bias run (fpk_vibro.montecarlo._paired.stationary_pairs),
+    #: set by the engine likewise.
+    rerun_paired: Any = None
 
     def __init__(self, system: VibroImpactSystem, meta: dict[str, Any],
                  arrays: dict[str, np.ndarray]) -> None:
@@ -318,12 +321,17 @@ class MonteCarloSolution(Solution):
         """Standard errors of :meth:`moments` (from independent batches of paths)."""
         return self._moment_dict("moments_se")
 
-    def error_estimate(self) -> dict[str, Any]:
+    def error_estimate(self, paired: bool = False) -> dict[str, Any]:
         """Statistics and time-step bias together: 2 SE plus the bias from a second run
         at 2 dt (:mod:`fpk_vibro.montecarlo.estimate`; computed on the first call; a
         transient's times share one second run, which its engine attached; once made,
-        kept by ``save`` and returned after ``load``)."""
-        if getattr(self, "_estimate", None) is None:
+        kept by ``save`` and returned after ``load``).  ``paired=True`` (stationary):
+        the second run shares the answer's Brownian increments (:mod:`._paired`),
+        made on that call."""
+        if paired and self.time is None:
+            from .estimate import error_estimate
+            self._estimate = error_estimate(self, paired=True)
+        elif getattr(self, "_estimate", None) is None:
             from .estimate import error_estimate
             self._estimate = error_estimate(self)
         return dict(self._estimate)
@@ -373,10 +381,11 @@ class MonteCarloSolution(Solution):
 
     @property
     def info(self) -> dict[str, Any]:
-        """Per-wall impacts and E[x] with its standard error (class docstring)."""
+        """Per-wall impacts, E[x] with its standard error (class docstring) and
+        ``device``: "cpu" or the GPU's name (``device = "cuda"``)."""
         return {k: (self.impacts() if k == "impacts" else self.inter_impact()
                     if k == "inter_impact" else self._meta[k])
-                for k in ("impacts", "inter_impact", "mean_x", "mean_x_se")
+                for k in ("impacts", "inter_impact", "mean_x", "mean_x_se", "device")
                 if k in self._meta}
 
     # -- persistence --------------------------------------------------------------
@@ -401,7 +410,12 @@ class MonteCarloSolution(Solution):
         "inter_impact": Rule("an object {count, mean, mean_se, unseen, pairs}",
                              lambda v: _gaps_ok(v)).optional(),
         "mean_x": Rule.number(nan=True).optional(),
-        "mean_x_se": Rule.number(0.0, nan=True).optional()}
+        "mean_x_se": Rule.number(0.0, nan=True).optional(),
+        "device": Rule.TEXT.optional(),
+        # a phase of montecarlo.periodic ("phase", its phase and bin) or its period
+        # average ("average")
+        "periodic": Rule.choice("phase", "average").optional(),
+        "phase": Rule.number(0.0).optional(), "phase_bin": Rule.number(0.0).optional()}
 
     @classmethod
     def _array_schema(cls, meta):
