@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["PIVOT", "SAFE_PIVOT", "pinned_system", "relative_residual",
+__all__ = ["PIVOT", "SAFE_PIVOT", "ELONGATED", "pinned_system", "relative_residual",
            "grid_nested_dissection", "is_p1", "nd_lu", "solve_direct"]
 
 
@@ -127,13 +127,20 @@ def nd_lu(K: sp.spmatrix, perm: np.ndarray, pivot: float = 0.01):
     return solve
 
 
-def _superlu(A: sp.csr_matrix, pivot: float = PIVOT):
-    """SuperLU of A by MMD on A + Aᵀ with diagonal pivots preferred (``pivot``);
-    the CSR arrays of A are those of Aᵀ in CSC, so Aᵀ is factorised without a copy
-    and solved transposed (the CSR → CSC conversion took as long as 15 % of the
-    factorisation at 2.6e5 Q4 DOFs)."""
-    lu = spla.splu(A.T, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=pivot,
-                   options={"SymmetricMode": True})
+#: x-DOFs / y-DOFs (or the inverse) of a tensor grid from which the factorisation is
+#: ordered by COLAMD, not MMD on A + Aᵀ: MMD's fill grows without bound there (Q4,
+#: 194 × 32 cells of a b = −300 spring, 100 233 DOFs: no factors after 10 min, the
+#: default solve hung; COLAMD 2.8 s, the grid's nested dissection 5.7 s).
+ELONGATED = 5.0
+
+
+def _superlu(A: sp.csr_matrix, pivot: float = PIVOT, ordering: str = "MMD_AT_PLUS_A"):
+    """SuperLU of A by ``ordering`` (MMD on A + Aᵀ, or COLAMD) with diagonal pivots
+    preferred (``pivot``); the CSR arrays of A are those of Aᵀ in CSC, so Aᵀ is
+    factorised without a copy and solved transposed (the CSR → CSC conversion took as
+    long as 15 % of the factorisation at 2.6e5 Q4 DOFs)."""
+    lu = spla.splu(A.T, permc_spec=ordering, diag_pivot_thresh=pivot,
+                   options={"SymmetricMode": ordering == "MMD_AT_PLUS_A"})
     return lambda v: lu.solve(v, trans="T")
 
 
@@ -154,15 +161,18 @@ def solve_direct(A: sp.csr_matrix, b: np.ndarray, grid, tol: float):
     on them, then factors with :data:`SAFE_PIVOT` and GMRES on those.  The grid's
     nested dissection orders Q1 (``grid`` the 1-D DOF ranks), MMD on A + Aᵀ the rest.
     Returns (x, GMRES iterations, ordering, backward error)."""
+    shape = None if grid is None else sorted(len(r) for r in grid)
+    elongated = shape is not None and shape[1] >= ELONGATED * max(shape[0], 1)
     if grid is not None and not all(is_p1(r) for r in grid):
         grid = None                      # measured: MMD beats this ND 4-5x for Q2
-    ordering = "nested-dissection" if grid is not None else "MMD_AT_PLUS_A"
+    ordering = ("nested-dissection" if grid is not None else
+                "COLAMD" if elongated else "MMD_AT_PLUS_A")
     it = 0
     for pivot, restarts in ((PIVOT, 1), (SAFE_PIVOT, 20)):
         if grid is not None:
             apply = nd_lu(A, grid_nested_dissection(*grid), pivot)
         else:
-            apply = _superlu(sp.csr_matrix(A), pivot)
+            apply = _superlu(sp.csr_matrix(A), pivot, ordering)
         x = apply(b)
         res = relative_residual(A, x, b)
         if res > 1e-10:             # static pivoting lost accuracy
