@@ -179,6 +179,17 @@ def run_dataset(out_dir: str | Path):
     ``first_passage_mean(point, method)`` (with ``_se``) and ``reliability(point,
     method, reliability_index)`` at ``reliability_time`` (the safe set in the
     attribute ``safe_set``).
+
+    A forced scene's periodic response (results.json ``"periodic": true``) has the
+    dimension ``phase`` (radians) besides: the moments above are the period
+    averages, and per phase ``phase_E_x``, ``phase_E_x2``, ``phase_E_y2``,
+    ``phase_E_H``, ``phase_P_impact`` ... ``(point, method, phase)`` with ``_se`` and
+    ``_error_estimate``, ``impact_rate(point, method, phase, wall)`` (with ``_se``),
+    the first harmonic of the mean ``mean_x``, ``amplitude``, ``lag(point, method)``
+    (with ``_se``, ``_error_estimate``: absolute, radians), and the densities at
+    each phase ``phase_pdf_<q>(point, method, phase, <q>_index)`` on
+    ``phase_<q>_grid(point, phase, <q>_index)``
+    (:mod:`fpk_vibro._labelled_periodic`).
     """
     xr = _xarray()
     doc = _records(out_dir)
@@ -227,13 +238,22 @@ def run_dataset(out_dir: str | Path):
     if transient:
         coords["time"] = np.asarray(times, dtype=float)
     data.update(_densities(Path(out_dir), points, methods, len(times)))
-    if not transient:
+    periodic = bool(doc.get("periodic"))
+    entries = [e for p in points for e in p.get("methods", {}).values()]
+    walls = sorted({w for e in entries for w in e.get("impact_energy", {})})
+    if periodic:
+        from ._labelled_periodic import periodic_data
+        coords["phase"] = np.asarray(doc["phases"], dtype=float)
+        data.update(periodic_data(points, methods, len(doc["phases"])))
+        data.update(_densities(Path(out_dir), points, methods, len(doc["phases"]),
+                               tag="ph", dim="phase", prefix="phase_"))
+        walls = sorted({w for e in entries for w in (e.get("periodic") or {}).get(
+            "impact_rates", {})})
+    elif not transient:
         data.update(_impact_data(Path(out_dir), points, methods))
     ds = xr.Dataset(data, coords=coords)
-    entries = [e for p in points for e in p.get("methods", {}).values()]
     if "wall" in ds.dims:
-        ds = ds.assign_coords(wall=sorted({w for e in entries
-                                           for w in e.get("impact_energy", {})}))
+        ds = ds.assign_coords(wall=walls)
     safe = next((e["first_passage"]["safe_set"] for e in entries
                  if "safe_set" in e.get("first_passage", {})), None)
     if safe is not None:
@@ -243,14 +263,15 @@ def run_dataset(out_dir: str | Path):
     return ds
 
 
-def _densities(out_dir: Path, points: list, methods: list[str], n_times: int = 0
-               ) -> dict[str, Any]:
+def _densities(out_dir: Path, points: list, methods: list[str], n_times: int = 0, *,
+               tag: str = "t", dim: str = "time", prefix: str = "") -> dict[str, Any]:
     """pdf_<q>(point, method[, time], <q>_index) and <q>_grid(point[, time], <q>_index)
-    from densities.npz (grids differ between points and times)."""
+    from densities.npz (grids differ between points and times); the phases of a
+    periodic run likewise (``tag`` "ph", ``dim`` "phase", ``prefix`` "phase_")."""
     f = out_dir / "densities.npz"
     if not f.exists():
         return {}
-    tags = [f".t{k}" for k in range(n_times)] if n_times else [""]
+    tags = [f".{tag}{k}" for k in range(n_times)] if n_times else [""]
     out: dict[str, Any] = {}
     with np.load(f) as npz:
         for q in ("energy", "x", "y"):
@@ -269,8 +290,8 @@ def _densities(out_dir: Path, points: list, methods: list[str], n_times: int = 0
                     if key in npz.files:
                         pdf[i, j, k, :g.size] = npz[key]
             if n_times:
-                out[f"{q}_grid"] = (("point", "time", f"{q}_index"), grid)
-                out[f"pdf_{q}"] = (("point", "method", "time", f"{q}_index"), pdf)
+                out[f"{prefix}{q}_grid"] = (("point", dim, f"{q}_index"), grid)
+                out[f"{prefix}pdf_{q}"] = (("point", "method", dim, f"{q}_index"), pdf)
             else:
                 out[f"{q}_grid"] = (("point", f"{q}_index"), grid[:, 0])
                 out[f"pdf_{q}"] = (("point", "method", f"{q}_index"), pdf[:, :, 0])
@@ -370,6 +391,7 @@ def moments_frame(out_dir: str | Path):
     """A run's moments as a ``pandas.DataFrame``: one row per point, method (and time),
     a column per moment and its standard error (``*_se``, Monte Carlo), and the swept
     parameters (``param_*``) and the point's status."""
-    ds = run_dataset(out_dir)
-    moments = [v for v in ds.data_vars if not v.startswith("pdf_") and not v.endswith("_grid")]
+    ds = run_dataset(out_dir)      # (a periodic run: the period averages and harmonic)
+    moments = [v for v in ds.data_vars if not v.startswith("pdf_") and not v.endswith("_grid")
+               and "phase" not in ds[v].dims]
     return ds[moments].to_dataframe().reset_index()

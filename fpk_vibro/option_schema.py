@@ -16,9 +16,10 @@ from ._checks import InputError, check_bool, check_choice, check_float, check_in
 
 __all__ = ["Option", "PerMode", "option", "MODES", "DENSITY_MODES", "REQUIRED"]
 
-#: The runs an option can serve: densities (stationary, transient) and the first
-#: passage out of a safe set (``first_passage(system, *, energy, start, times, ...)``).
-MODES = ("stationary", "transient", "first_passage")
+#: The runs an option can serve: densities (stationary, transient), the first
+#: passage out of a safe set (``first_passage(system, *, energy, start, times, ...)``)
+#: and the periodic response to harmonic forcing (``periodic(system, phases, ...)``).
+MODES = ("stationary", "transient", "first_passage", "periodic")
 #: The modes of an option that does not name its own: the density runs.
 DENSITY_MODES = ("stationary", "transient")
 

@@ -32,7 +32,8 @@ __all__ = ["Option", "PerMode", "option", "Options", "MODES", "DENSITY_MODES", "
 _MODE_RUNS = {"stationary": "stationary (no study.times)",
               "transient": "transient (with study.times)",
               "first_passage": "first-passage (a stationary scene with the quantity "
-                               "\"first_passage\")"}
+                               "\"first_passage\")",
+              "periodic": "periodic (a scene with [forcing], no study.times)"}
 
 
 class Options:

@@ -54,7 +54,9 @@ from .safe_sets import SUPPORTED_BY as SAFE_SETS_SUPPORTED_BY
 __all__ = ["Method", "FEATURES", "MODES", "QUANTITIES", "features_of", "methods", "register",
            "unregister", "capability_table"]
 
-MODES = ("stationary", "transient", "first_passage")
+MODES = ("stationary", "transient", "first_passage", "periodic")
+#: The modes of an unforced system.
+_UNFORCED = MODES[:3]
 QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage",
               "inter_impact", "impact_energy")
 #: The safe sets a first passage may leave (:mod:`fpk_vibro.safe_sets`).
@@ -68,6 +70,7 @@ FEATURES = {
                      "softening beyond its hump)",
     "no damping": "no damping (c = 0)",
     "restitution laws": "restitution that depends on the impact speed (a law r(u))",
+    "harmonic forcing": "harmonic forcing F cos(Ωt + φ0) (a periodic response)",
 }
 
 
@@ -87,6 +90,8 @@ def features_of(system: VibroImpactSystem) -> tuple[str, ...]:
         out.append("no damping")
     if any(w.law is not None for _, w in system.walls):
         out.append("restitution laws")
+    if system.forcing is not None:
+        out.append("harmonic forcing")
     return tuple(out)
 
 
@@ -269,19 +274,29 @@ provide("fem", _fem_reference)
 provide("fem-transient", _fem_transient_reference)
 provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(system, **kw))
 
+def _forced_modes(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
+    """A forced system's response is periodic: no stationary density, no
+    time-invariant first passage (fem and montecarlo: periodic and transient)."""
+    if system.forcing is not None and mode in ("stationary", "first_passage"):
+        return (f"a system with harmonic forcing has no {mode.replace('_', ' ')} answer "
+                "(its response is periodic); use the modes periodic or transient")
+    return None
+
+
 for _m in (
     Method("averaging", "stochastic averaging of the energy envelope (1-D in H)",
-           MODES, QUANTITIES, tuple(f for f in FEATURES if f != "several wells"),
+           _UNFORCED, QUANTITIES,
+           tuple(f for f in FEATURES if f not in ("several wells", "harmonic forcing")),
            _averaging_solver, _averaging_options, safe_sets=SAFE_SETS,
            solution_kinds=("averaging", "averaging_grid"), study="n_panel ladder",
            benchmark="averaging"),
     Method("fem", "finite elements for the 2-D FPK on the strip", MODES, QUANTITIES,
            tuple(FEATURES), _fem_solver, _fem_options, solution_kinds=("fem",),
-           safe_sets=SAFE_SETS,
+           safe_sets=SAFE_SETS, check=_forced_modes,
            study="degree and nx ladder", benchmark="fem"),
-    Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts", MODES,
-           QUANTITIES, tuple(FEATURES), _montecarlo_solver, _montecarlo_options,
-           sampled=True, safe_sets=SAFE_SETS,
+    Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts",
+           MODES, QUANTITIES, tuple(FEATURES), _montecarlo_solver, _montecarlo_options,
+           sampled=True, safe_sets=SAFE_SETS, check=_forced_modes,
            solution_kinds=("montecarlo",), study="target standard error ladder",
            benchmark="montecarlo"),
     Method("exact", "the Gibbs density exp(−(c/D1) H)/Z (r = 1, D2 = 0)", ("stationary",),

@@ -4,6 +4,7 @@ simulator giving the same Solution type as the CPU (in a subprocess: the simulat
 must be switched on before numba.cuda is first imported)."""
 from __future__ import annotations
 
+import glob
 import json
 import os
 import subprocess
@@ -17,8 +18,19 @@ from fpk_vibro._checks import InputError
 from fpk_vibro.montecarlo import Options
 from fpk_vibro.montecarlo._device import available
 
-HAS_GPU = available()[0]
-no_gpu = pytest.mark.skipif(HAS_GPU, reason="a CUDA device (or the simulator) is usable here")
+#: A real NVIDIA device here (the session may run numba's simulator otherwise:
+#: conftest.py), where "cuda" is not refused.
+REAL_GPU = bool(glob.glob("/dev/nvidia[0-9]*")) and available()[0]
+no_gpu = pytest.mark.skipif(REAL_GPU, reason="a CUDA device is usable here")
+
+
+@pytest.fixture(autouse=True)
+def _no_simulator_as_a_device(monkeypatch):
+    """Without a real device the simulator does not count as one (as outside tests)."""
+    if not REAL_GPU:
+        from fpk_vibro.montecarlo import _device
+        monkeypatch.setattr(_device, "available",
+                            lambda: (False, "no CUDA GPU or driver was found"))
 
 
 def test_device_is_declared_once_for_every_mode():

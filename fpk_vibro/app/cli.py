@@ -107,7 +107,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     scene = _load(args)
     points = check_scene(scene)
     print(f"{args.scene}: valid — methods {list(scene.methods)}, quantities "
-          f"{list(scene.quantities)}, {'times ' + str(list(scene.times)) if scene.transient else 'stationary'}, "
+          f"{list(scene.quantities)}, {_mode_words(scene)}, "
           f"{len(points)} point(s){' (reduced)' if args.reduced else ''}")
     total_s, peak = 0.0, 0.0
     for i, pt in enumerate(points):
@@ -120,6 +120,15 @@ def cmd_check(args: argparse.Namespace) -> int:
     print(f"  estimated total: ~{human_seconds(total_s)} of compute, at most "
           f"~{human_bytes(peak)} of memory per point")
     return 0
+
+
+def _mode_words(scene) -> str:
+    """What the scene computes: its times, its phases (forced) or stationary."""
+    if scene.transient:
+        return "times " + str(list(scene.times))
+    if scene.periodic:
+        return f"periodic response at {len(scene.phases)} phases"
+    return "stationary"
 
 
 def cmd_show(args: argparse.Namespace) -> int:

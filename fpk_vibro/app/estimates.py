@@ -102,6 +102,11 @@ def add_estimates(scene: Scene, record: dict[str, Any], solutions: dict[str, Any
     fem = solutions.get("fem")
     for method, sol in solutions.items():
         entry = record["methods"][method]
+        if scene.periodic:         # the average's, then the phases' and the harmonic's
+            from .periodic_records import periodic_estimates
+            entry.update(_estimate_record(method, sol.average(), None, scene.error_estimates))
+            entry["periodic"].update(periodic_estimates(sol, scene.error_estimates))
+            continue
         if not scene.transient:
             entry.update(_estimate_record(method, sol, fem if method != "fem" else None,
                                           scene.error_estimates))

@@ -51,8 +51,9 @@ def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> 
         return {}
     kw = dict(scene.numerics.get(method, {}))
     declared = Options.declared()
-    if "quantities" in declared:
-        kw["quantities"] = tuple(q for q in scene.quantities if q in _solver_quantities())
+    if "quantities" in declared:      # a periodic run samples the densities only
+        kw["quantities"] = tuple(q for q in scene.quantities if q in (
+            DENSITIES if scene.mode == "periodic" else _solver_quantities()))
     if "progress" in declared:
         kw["progress"] = progress
     return {k: v for k, v in kw.items() if scene.mode in declared[k].modes}
@@ -110,6 +111,9 @@ def plan(scene: Any, method: str, system: VibroImpactSystem) -> Cost:
     Options = _options(method)
     if Options is None:                    # a closed form: nothing to size
         return Cost(50e6, 1.0, "quadratures", 0.05)
+    if scene.mode == "periodic" and "periodic" not in Options.FORCED_MODES:
+        # its periodic solver checks its keywords itself (no declaration to size by)
+        return Cost(0.0, 0.0, "periodic solve", 1.0, note="not sized before the run")
     init = None
     if scene.transient:
         from ..initial import parse_initial

@@ -30,6 +30,8 @@ def write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]]
     doc = {"scene": scene.source, "name": scene.name, "stationary": not scene.transient,
            "fpk_vibro_version": __version__, "wall_time_s": wall,
            "status": "complete" if signum is None else "interrupted", "points": listed}
+    if scene.periodic:            # the periodic response of a forced scene
+        doc["periodic"], doc["phases"] = True, list(scene.phases)
     if signum is not None:
         doc["signal"] = signal.Signals(signum).name
     if fault is not None:        # the rest is made again by --resume
@@ -56,6 +58,12 @@ def write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]]
                     doc["figures"].append(run_plots.sweep_moments(
                         listed, out_dir / "sweep_moments.png", title=scene.name).name)
                 atomic_json(out_dir / "results.json", doc)
+    if scene.periodic and scene.sweep and "png" in scene.formats and signum is None and any(
+            r.get("status") == "done" for r in listed):
+        from .periodic_plots import response_curve
+        doc.setdefault("figures", []).append(response_curve(
+            listed, out_dir / "sweep_response.png", title=scene.name).name)
+        atomic_json(out_dir / "results.json", doc)
     if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
         from ..io import atomic_files
         from ..labelled import NETCDF_ENGINE, run_dataset

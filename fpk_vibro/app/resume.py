@@ -59,6 +59,8 @@ def fingerprint(scene: Any, index: int, params: dict[str, float], system: Any
              "quantities": list(scene.quantities), "formats": list(scene.formats),
              "times": scene.times, "initial": scene.initial,
              "first_passage": scene.first_passage}
+    if scene.phases is not None:        # (absent otherwise: earlier runs stay resumable)
+        point["phases"] = list(scene.phases)
     return {"scene": _digest({"name": scene.name, "source": scene.source}),
             "point": _digest(point)}
 

@@ -9,6 +9,9 @@ Layout of an output directory::
     p{i}_joint.png          joint densities side by side
     p{i}_fem.vtu            the FE field (format "vtu")
     points/p{i}.json        each sweep point as soon as it finishes
+
+A forced scene's periodic response adds its records and figures per phase
+(:mod:`fpk_vibro.app.periodic_records`, :mod:`fpk_vibro.app.periodic_point`).
 """
 from __future__ import annotations
 
@@ -36,6 +39,7 @@ from .results import storage_failed, write_results
 from .resume import (clear_outputs, clear_temporaries, fingerprint, seal, select,
                      storage_fault)
 from .impact_records import impact_arrays, impact_energy_record, inter_impact_record
+from .periodic_records import periodic_record
 from .scene_impacts import safe_set_keyword
 from .scenes import Scene, check_scene
 
@@ -51,6 +55,8 @@ def _solve(method: str, system: VibroImpactSystem, scene: Scene,
     solve = methods()[method].solver(scene.mode)
     if scene.transient:
         return solve(system, initial=scene.initial, times=scene.times, **kw)
+    if scene.periodic:
+        return solve(system, scene.phases, **kw)
     return solve(system, **kw)
 
 
@@ -149,6 +155,9 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         if scene.transient:
             entry["times"] = list(scene.times)
             entry["at"] = [_moments_record(s) for s in sol]
+        elif scene.periodic:       # the period average as the moments, the phases beside
+            entry.update(_moments_record(sol.average()))
+            entry["periodic"] = periodic_record(sol, methods()[method].sampled)
         else:
             entry.update(_moments_record(sol))
             entry.update(_engineering(scene, method, system, sol, passages))
@@ -167,7 +176,13 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         raise RuntimeError("the run was stopped; this point's result is discarded")
     arrays: dict[str, np.ndarray] = {}
     want_density = [q for q in scene.quantities if q in ("energy", "x", "y", "joint")]
-    if want_density:
+    if scene.periodic:
+        from .periodic_point import point_outputs
+        arrays, figs = point_outputs(scene, index, params, system, solutions,
+                                     record["methods"], out_dir, _density_arrays)
+        if figs:
+            record["figures"] = figs
+    elif want_density:
         title = f"{scene.name}" + ("" if not params else " — " + ", ".join(
             f"{k} = {v:g}" for k, v in params.items()))
         # a transient: every requested time (arrays "….t{k}", figures "p{i}_t{k}_…"),
@@ -185,12 +200,13 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                     snapshots, grids, want_density, out_dir,
                     f"p{index}" if k is None else f"p{index}_t{k}",
                     title if t is None else f"{title}, t = {t:g}")]
-    if not scene.transient:
+    if not scene.transient and not scene.periodic:
         impacts = impact_arrays(scene.quantities, solutions, record["methods"], index,
                                 lambda m: methods()[m].sampled)
         arrays.update(impacts)
-    if "png" in scene.formats and ("impacts" in scene.quantities and system.has_barrier
-                                   or passages or not scene.transient and impacts):
+    if "png" in scene.formats and not scene.periodic and (
+            "impacts" in scene.quantities and system.has_barrier
+            or passages or not scene.transient and impacts):
         figs = record.setdefault("figures", [])
         if "impacts" in scene.quantities and system.has_barrier:
             figs.append(run_plots.impact_speeds(solutions, out_dir / f"p{index}_impact_speed.png",
@@ -207,7 +223,8 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
             figs.append(run_plots.moment_history(record["methods"], out_dir / f"p{index}_{key}_t.png",
                                                 key=key, title=scene.name).name)
     if "vtu" in scene.formats and "fem" in solutions:
-        fem_sol = solutions["fem"][-1] if scene.transient else solutions["fem"]
+        fem_sol = solutions["fem"][-1] if scene.transient else \
+            solutions["fem"].average() if scene.periodic else solutions["fem"]
         path = out_dir / f"p{index}_fem.vtu"
         fem_sol.save_vtu(path)
         record["vtu"] = path.name

@@ -1,9 +1,10 @@
 """The keys a scene may hold, each declared once, and the table of them.
 
 ``[system]`` and ``[barriers]`` come from :data:`fpk_vibro.model.FIELDS` (the walls'
-sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[averaging]``, ``[fem]``,
-``[montecarlo]`` from each method's ``Options``, the rest from :data:`STUDY_KEYS`
-here.  Parsing a scene is :mod:`fpk_vibro.app.scenes`.
+sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[forcing]`` from
+:data:`FORCING_FIELDS` (the keys of :class:`fpk_vibro.forcing.Harmonic`),
+``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the rest
+from :data:`STUDY_KEYS` here.  Parsing a scene is :mod:`fpk_vibro.app.scenes`.
 """
 from __future__ import annotations
 
@@ -16,7 +17,8 @@ from ..model import FIELDS, WALL_FIELDS
 from ..options import REQUIRED, Option, PerMode
 
 __all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "IMPACT_QUANTITIES", "LAW_PARAMETERS",
-           "FORMATS", "ERROR_ESTIMATES", "SWEEPABLE", "STUDY_KEYS",
+           "NOT_PERIODIC", "FORCING_FIELDS", "DEFAULT_PHASES", "FORMATS", "ERROR_ESTIMATES",
+           "SWEEPABLE", "STUDY_KEYS",
            "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option",
            "method_names", "method_tables", "tables"]
 
@@ -29,6 +31,20 @@ QUANTITIES = _REGISTRY_QUANTITIES
 STATIONARY_ONLY = ("impacts", "first_passage", "inter_impact", "impact_energy")
 #: Quantities about impacts: they need a system with a wall.
 IMPACT_QUANTITIES = ("impacts", "inter_impact", "impact_energy")
+#: Quantities a forced system does not have (they assume a stationary response).
+NOT_PERIODIC = ("first_passage", "inter_impact", "impact_energy")
+#: The phases of a periodic scene without ``study.phases``: 8 equally spaced.
+DEFAULT_PHASES = tuple(2.0 * math.pi * k / 8 for k in range(8))
+#: The keys of ``[forcing]`` (:class:`fpk_vibro.forcing.Harmonic`; it checks them too).
+FORCING_FIELDS = {
+    "amplitude": Option(REQUIRED, "F of the forcing F cos(Ωt + φ0) (force per unit mass); "
+                        "required in a [forcing] table, which is optional (none: no "
+                        "forcing)", "float", lo=0.0, lo_open=False, unit="m/s²"),
+    "frequency": Option(REQUIRED, "Ω of the forcing: its period is 2π/Ω; required in a "
+                        "[forcing] table", "float", lo=0.0, lo_open=True, unit="rad/s"),
+    "phase": Option(0.0, "φ0 of the forcing (taken mod 2π): the phase at t = 0", "float",
+                    unit="rad"),
+}
 FORMATS = ("json", "npz", "png", "vtu", "nc")
 #: study.error_estimates: how each answer's error is estimated (fpk_vibro.app.estimates).
 ERROR_ESTIMATES = ("auto", "fem-check", "none")
@@ -44,13 +60,16 @@ LAW_PARAMETERS = {
 }
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
              "right.position", "right.r") + tuple(
-    f"{wall}r.{k}" for wall in ("", "left.", "right.") for k in LAW_PARAMETERS)
+    f"{wall}r.{k}" for wall in ("", "left.", "right.") for k in LAW_PARAMETERS) + (
+    "forcing.amplitude", "forcing.frequency")
 
 
 def sweep_option(p: str) -> Option:
     """The declaration a swept value is checked against (a model or a wall field, or a
     parameter of a law: ``r.r1``, ``left.r.u0``)."""
     parts = p.split(".")
+    if parts[0] == "forcing":
+        return FORCING_FIELDS[parts[1]]
     if parts[-1] in LAW_PARAMETERS and len(parts) >= 2 and parts[-2] == "r":
         return LAW_PARAMETERS[parts[-1]]
     return WALL_FIELDS[parts[1]] if len(parts) > 1 else FIELDS[p]
@@ -112,6 +131,17 @@ def _displacement(name: str, v: Any, where: str | None) -> Any:
     return check_float(name, v, 0.0, where=where)
 
 
+def _phases(name: str, v: Any, where: str | None) -> tuple[float, ...]:
+    allowed = "a non-empty list of distinct phases in radians in [0, 2π)"
+    if not isinstance(v, list) or not v or len(v) > 10_000:
+        raise invalid(where, name, allowed, v)
+    out = tuple(check_float(f"{name}[{i}]", x, 0.0, 2.0 * math.pi, lo_open=False,
+                            hi_open=True, where=where) for i, x in enumerate(v))
+    if len(set(out)) != len(out):
+        raise invalid(where, name, allowed, v, "a phase is repeated")
+    return out
+
+
 def _start(name: str, v: Any, where: str | None) -> Any:
     if v == "stationary":
         return v
@@ -135,6 +165,11 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
         "times": Option(None, "output times; absent: stationary", "custom", check=_times,
                         allowed="increasing list of numbers >= 0", unit="s",
                         auto="stationary"),
+        "phases": Option(DEFAULT_PHASES, "phases φ = (Ωt + φ0) mod 2π at which a forced scene "
+                         "([forcing], no study.times) reports its periodic response (the "
+                         "forcing there is F cos φ)", "custom", check=_phases,
+                         allowed="list of distinct numbers in [0, 2π)", unit="rad",
+                         auto="8 equally spaced: 0, π/4, …, 7π/4"),
         "error_estimates": Option(ERROR_ESTIMATES[0], "how each answer's error is estimated: "
                                   "\"auto\" every method's own estimate, averaging's from "
                                   "the scene's fem (else its indicator model, or none for a "
@@ -189,7 +224,7 @@ def method_tables() -> tuple[str, ...]:
 
 def tables() -> tuple[str, ...]:
     """Every table a scene may hold, the methods' tables among them."""
-    return ("system", "barriers", "study") + method_tables() + (
+    return ("system", "barriers", "forcing", "study") + method_tables() + (
         "initial", "first_passage", "sweep", "output")
 
 
@@ -201,6 +236,8 @@ def table_keys(table: str) -> dict[str, Option]:
     if table in ("system", "barriers"):
         return {opt.scene.split(".")[1]: opt for opt in FIELDS.values()
                 if opt.scene.startswith(table + ".")}
+    if table == "forcing":
+        return FORCING_FIELDS
     if table in method_tables():
         return {k: o for k, o in _method_options(table).declared().items()
                 if o.scene in ("", "file")}
@@ -218,6 +255,9 @@ def _sweep_doc(p: str) -> str:
         law = "barriers.r" if len(parts) == 2 else f"barriers.{parts[0]}.r"
         return (f"list of values of {parts[-1]} of the tanh law {law} (each point builds "
                 "the law with it)")
+    if parts[0] == "forcing":
+        return (f"list of values of {p} (needs [forcing]; a sweep of forcing.frequency "
+                "draws the response curve)")
     return f"list of values of {p}"
 
 

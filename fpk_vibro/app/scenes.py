@@ -1,9 +1,12 @@
 """Scenes: a declared study in a small TOML file, validated before any work starts.
 
-A scene names the system, the barriers, which methods to run, which quantities to
-compute and at which times (absent: stationary), the numerics of each method, an
-optional sweep over one or two parameters, and the output.  Every key comes from
-one declaration: ``[system]`` and ``[barriers]`` from :data:`fpk_vibro.model.FIELDS`,
+A scene names the system, the barriers, an optional harmonic forcing, which methods
+to run, which quantities to compute and at which times (absent: stationary, or with
+``[forcing]`` the periodic response at ``study.phases``), the numerics of each
+method, an optional sweep over one or two parameters, and the output.  Every key
+comes from one declaration: ``[system]`` and ``[barriers]`` from
+:data:`fpk_vibro.model.FIELDS`, ``[forcing]`` from
+:data:`~fpk_vibro.app.scene_keys.FORCING_FIELDS`,
 ``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the
 rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the table of
 docs/guide/keys.md is generated from it).
@@ -29,8 +32,9 @@ from ..registry import methods as method_registry
 from .outdir import safe_name
 from .scene_impacts import (check_first_passage, check_law_sweep, check_laws, check_walls,
                             first_passage_table, flatten_sweep, point_system)
-from .scene_keys import (FORMATS, METHODS, QUANTITIES, STATIONARY_ONLY, STUDY_KEYS,  # noqa: F401
-                         SWEEPABLE, TABLES, SceneError, _method_options, method_tables,
+from .scene_keys import (FORMATS, METHODS, NOT_PERIODIC, QUANTITIES,  # noqa: F401
+                         STATIONARY_ONLY, STUDY_KEYS, SWEEPABLE, TABLES, SceneError,
+                         _method_options, method_tables,
                          schema_table, tables,
                          sweep_option, table_keys)
 
@@ -71,14 +75,20 @@ class Scene:
     source: dict[str, Any] = field(default_factory=dict, repr=False)
     first_passage: dict[str, Any] | None = None
     error_estimates: str = "auto"
+    phases: tuple[float, ...] | None = None
 
     @property
     def transient(self) -> bool:
         return self.times is not None
 
     @property
+    def periodic(self) -> bool:
+        """A forced scene without times: the periodic response at ``phases``."""
+        return self.phases is not None
+
+    @property
     def mode(self) -> str:
-        return "transient" if self.transient else "stationary"
+        return "transient" if self.transient else "periodic" if self.periodic else "stationary"
 
     @property
     def n_points(self) -> int:
@@ -159,8 +169,8 @@ def _clean_tables(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
                 clean[table][k] = keys[k].validate(full, v, None)
             except InputError as exc:
                 raise SceneError(str(exc), name=full) from None
-        for k, opt in keys.items():
-            if opt.default is REQUIRED and k not in given:
+        for k, opt in keys.items():      # (of a table given: [forcing] is optional)
+            if opt.default is REQUIRED and k not in given and table in data:
                 raise SceneError(f"{table}.{k}: required key is missing ({opt.doc})",
                                  name=f"{table}.{k}")
     return clean
@@ -178,6 +188,8 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     sys_, bar, study = clean["system"], clean["barriers"], clean["study"]
     fields = {_FIELD_OF_KEY[f"system.{k}"]: v for k, v in sys_.items()}
     fields.update({_FIELD_OF_KEY[f"barriers.{k}"]: v for k, v in bar.items()})
+    if clean["forcing"]:
+        fields["forcing"] = clean["forcing"]
     sides = fields.get("barriers", "both")
     walls = fields.get("left") is not None or fields.get("right") is not None
     if sides != "none" and fields.get("delta") is None and not walls:
@@ -187,7 +199,8 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     try:
         system = VibroImpactSystem(**fields)
     except InputError as exc:
-        key = FIELDS[exc.name].scene if exc.name in FIELDS else "system"
+        key = FIELDS[exc.name].scene if exc.name in FIELDS else \
+            exc.name if exc.name.startswith("forcing.") else "system"
         raise SceneError(exc.keyed(key), name=key) from None
     sweep = {k: v for k, v in clean["sweep"].items() if v is not None}
     if len(sweep) > 2:
@@ -214,7 +227,8 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
                 raise SceneError(exc.keyed(f"sweep.{k}[{i}]"), name=f"sweep.{k}") from None
     check_law_sweep(system, sweep)
     times = study.get("times")
-    mode = "transient" if times is not None else "stationary"
+    phases = _periodic(system, sweep, study, times)
+    mode = "transient" if times is not None else "periodic" if phases else "stationary"
     numerics: dict[str, dict[str, Any]] = {}
     for m in method_tables():
         try:
@@ -244,6 +258,8 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
         raise SceneError(f"study.quantities: {sorted(set(quantities) & set(STATIONARY_ONLY))} "
                          "are stationary only; remove them or study.times",
                          name="study.quantities")
+    if phases is not None:
+        _check_periodic(methods, quantities)
     _check_someone_gives(methods, quantities)
     fp = first_passage_table(clean["first_passage"], quantities)
     formats = clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default)
@@ -261,12 +277,50 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
         out_dir = base / out_dir
     return Scene(name=scene_name, system=system, methods=methods,
                  quantities=quantities, first_passage=fp,
-                 times=times, numerics=numerics, initial=init, sweep=sweep,
+                 times=times, phases=phases, numerics=numerics, initial=init, sweep=sweep,
                  output_dir=out_dir,
                  error_estimates=study.get("error_estimates",
                                            STUDY_KEYS["study"]["error_estimates"].default),
                  formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
                  source=data)
+
+
+def _periodic(system: VibroImpactSystem, sweep: dict[str, Any], study: dict[str, Any],
+              times: Any) -> tuple[float, ...] | None:
+    """The phases of a forced scene without times (a periodic response), else None;
+    ``study.phases`` or a sweep of the forcing without ``[forcing]`` refused."""
+    forced = system.forcing is not None
+    for k in sweep:
+        if k.startswith("forcing.") and not forced:
+            raise SceneError(f"sweep.{k}: sweeps the harmonic forcing, and the scene has "
+                             "none; add [forcing] amplitude = F, frequency = Ω",
+                             name=f"sweep.{k}")
+    if "phases" in study and (not forced or times is not None):
+        why = "has no [forcing]" if not forced else "is transient (study.times)"
+        raise SceneError("study.phases: only used by a forced scene without study.times "
+                         f"(the periodic response); this one {why}; remove it",
+                         name="study.phases")
+    if not forced or times is not None:
+        return None
+    return study.get("phases", STUDY_KEYS["study"]["phases"].default)
+
+
+def _check_periodic(names: list[str], quantities: tuple[str, ...]) -> None:
+    """A periodic scene: methods that solve the periodic response, and no quantity of a
+    stationary response."""
+    stationary = [q for q in quantities if q in NOT_PERIODIC]
+    if stationary:
+        raise SceneError(f"study.quantities: {stationary} need a stationary response, and "
+                         "[forcing] makes it periodic; remove them or [forcing]",
+                         name="study.quantities")
+    registry = method_registry()
+    for m in names:
+        if "periodic" not in registry[m].modes:
+            have = [n for n, x in registry.items() if "periodic" in x.modes]
+            others = f"; {', '.join(have)} do" if have else "; no registered method does"
+            raise SceneError(f"study.methods: {m!r} does not solve the periodic response "
+                             f"of a forced system ([forcing]){others}; remove it or "
+                             "[forcing]", name="study.methods")
 
 
 def _check_someone_gives(names: list[str], quantities: list[str]) -> None:

@@ -45,6 +45,8 @@ BENCHMARKS: dict[str, Benchmark] = {
     "fem-scenes": Benchmark("fem_scenes", "the default stationary solve on random scenes"),
     "fem-restitution": Benchmark("fem_restitution", "cost of a tabulated restitution law "
                                  "against a constant r"),
+    "fem-periodic": Benchmark("fem_periodic", "the periodic FE state under harmonic "
+                              "forcing: seconds, K, estimate, amplitude and lag"),
 }
 
 

@@ -40,6 +40,7 @@ def _stationary_gpu(n, n_burn, n_samp, dt, every):
                 np.zeros((nb, 2, 4)))
 
     from fpk_vibro.montecarlo import _cuda_engine as CE
+    from fpk_vibro.montecarlo import _cuda_launch as CL
     Ensemble(system, xs[:64], ys[:64], 1)                                     # compile
     t0 = time.perf_counter()
     ens = Ensemble(system, xs, ys, 12345)
@@ -49,12 +50,12 @@ def _stationary_gpu(n, n_burn, n_samp, dt, every):
     ens.advance(xs, ys, None, None, 2, 0, 0, p, ip, mom, imp, xext, *e, walls=wimp)  # compile
     rates = {}
     for tpb in (128, 256):
-        CE.THREADS_PER_BLOCK = tpb
+        CL.THREADS_PER_BLOCK = tpb
         t0 = time.perf_counter()
         ens.advance(xs, ys, None, None, n_burn // 2, 0, 0, p, ip, mom, imp, xext, *e,
                     walls=wimp)
         rates[tpb] = n * (n_burn // 2) / (time.perf_counter() - t0)
-    CE.THREADS_PER_BLOCK = max(rates, key=rates.get)
+    CL.THREADS_PER_BLOCK = max(rates, key=rates.get)
     t_burn = n * n_burn / sum(n * (n_burn // 2) / r for r in rates.values())
     mom, imp, xext, wimp = sums()
     ens.advance(xs, ys, None, None, 2, 0, every, p, ip, mom, imp, xext, hist.hH, hist.hx,

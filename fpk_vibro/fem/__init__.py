@@ -5,6 +5,7 @@ Theory: docs/theory.md, §FPK on the strip to §Transients.
 Public API
 ----------
 :func:`stationary`      stationary density → :class:`FEMSolution`
+:func:`periodic`        periodic density under harmonic forcing → :class:`~fpk_vibro.periodic.PeriodicResponse`
 :func:`assemble`        (L, M) on any skfem basis of the strip (for transient solvers)
 :func:`assemble_tensor` the same by Kronecker products on a tensor-product mesh
 :func:`domain`          the truncated strip and its walls (default ``y_max`` rule)
@@ -32,13 +33,14 @@ from .discretisation import Discretisation, build
 from .first_passage import first_passage
 from .generator import assemble, assemble_tensor
 from .mesh import Domain, default_y_max, domain, load_mesh, structured_mesh
+from .periodic import periodic
 from .options import DEFAULT_NX, DEFAULT_RTOL, POSITIVITY, Options  # noqa: F401
 from .solution import FEMSolution
 from .solve import SOLVERS
 from .stationary import stationary
 from .transient import relaxation_time, transient
 
-__all__ = ["stationary", "transient", "Options", "Discretisation", "build", "FEMSolution",
+__all__ = ["stationary", "transient", "periodic", "Options", "Discretisation", "build", "FEMSolution",
            "assemble", "assemble_tensor", "domain", "DEFAULT_NX", "POSITIVITY",
            "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS",
            "relaxation_time", "first_passage"]

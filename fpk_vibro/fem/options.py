@@ -22,6 +22,7 @@ from .ladder import DEFAULT_RTOL, WALL_GRADING, ladder_cost, uses_ladder  # noqa
 from .mesh import thermal_velocity
 from .solve import SOLVERS
 from .strip_mesh import load_strip_mesh
+from .periodic_options import MAX_HARMONICS, REDUCED, periodic_cost, validate_periodic
 from .wall_layers import MAX_CONTRAST, check_wall_layers, wall_layers  # noqa: F401
 
 __all__ = [
@@ -36,9 +37,12 @@ __all__ = [
     "load_strip_mesh",
 ]
 
-S, T, FP = ("stationary",), ("transient",), ("first_passage",)
+S, T, FP, PE = ("stationary",), ("transient",), ("first_passage",), ("periodic",)
 #: The mesh options shared by the densities and first passage.
 ALL = ("stationary", "transient", "first_passage")
+#: With fem.periodic (its keywords: rtol, nx, ny, degree, harmonics, y_max,
+#: wall_grading).
+ALLP, DENSP = ALL + PE, ("stationary", "transient", "periodic")
 #: Cells across x of each part of the safe set in first passage by default: within
 #: 0.2 % of converged on the measured cases (docs/fem_first_passage.md) in about a
 #: second.
@@ -95,26 +99,31 @@ class Options(_Options):
     nx, ny, degree mesh each part of the safe set, rtol drives its refinement)."""
 
     WHERE = "fem"
+    #: fem.periodic solves for a forced system's periodic state and fem.transient
+    #: marches one (its forcing explicit in IMEX-BDF2 steps).
+    FORCED_MODES = ("transient", "periodic")
 
     mesh: Any = option(None, "a mesh of the strip (walls at its x-extremes, symmetric in y, "
                        "y = 0 a mesh line); in a scene a file relative to it", "custom",
                        check=_mesh, allowed="a mesh file", scene="file", reduced="drop",
                        auto="a structured mesh of nx × ny cells")
-    nx: int | None = option(None, "cells across x", "int", lo=2, hi=10 ** 6, reduced=24,
-                            modes=ALL, auto="128, 48, 32, 24 for degree 1, 2, 3, 4 (first "
-                            "passage: 32)")
+    nx: int | None = option(None, "cells across x", "int", lo=2, hi=10 ** 6,
+                            reduced=24, modes=ALLP,
+                            auto="128, 48, 32, 24 for degree 1, 2, 3, 4 (first "
+                            "passage: 32; periodic: 12, doubled by rtol)")
     ny: int | None = option(None, "cells across y (even: y = 0 is a mesh line)", "int",
-                            lo=2, hi=10 ** 6, even=True, reduced=32, modes=ALL,
+                            lo=2, hi=10 ** 6, even=True, reduced=32, modes=ALLP,
                             auto="h_y ≈ 1.5 h_x, at most 4 nx (first passage: 2 nx)")
     y_max: float | None = option(None, "velocity truncation |y| < y_max", "float", lo=0.0,
-                                 lo_open=True, unit="m/s",
+                                 lo_open=True, unit="m/s", modes=DENSP,
                                  auto="the energy-tail rule of fpk_vibro.scales (mass "
-                                      "beyond < 1e-8)")
+                                      "beyond < 1e-8; periodic: plus Ω times the linear "
+                                      "response amplitude)")
     degree: int | None = option(PerMode(1, None, 2), "Lagrange degree: 1 (Q1/P1), 2 (Q2/P2); "
                                 "3 or 4 (Q3/Q4, the structured quad mesh with tensor "
                                 "assembly; not in first passage)", "int", lo=1, hi=4,
-                                modes=ALL,
-                                auto="2, or 1 with positivity")
+                                modes=ALLP,
+                                auto="2, or 1 with positivity (periodic: 3)")
     rtol: float | None = option(None, "accuracy goal: degree 2-4, nx, ny are chosen until "
                                 "the estimated L1 error of p and relative errors of E[H], "
                                 "E[x²], E[y²], P_impact are below it (sol.error_estimate();"
@@ -122,13 +131,14 @@ class Options(_Options):
                                 "not with mesh, nx, ny, degree or positivity "
                                 "(first passage: nx, ny, n_steps doubled from the given "
                                 "ones until its three-level estimate meets it)",
-                                "float", lo=1e-10, hi=0.5, modes=ALL,
+                                "float", lo=1e-10, hi=0.5, modes=ALLP,
                                 auto="stationary: 1e-4 (best effort: flagged and one "
                                      "RuntimeWarning, not refused, when not reached) "
                                      "unless mesh, nx, ny or positivity is given, then no "
                                      "adaptation (the estimate is still available: "
                                      "sol.error_estimate()); transient, first passage: no "
-                                     "adaptation")
+                                     "adaptation; periodic: 1e-3 (best effort) unless "
+                                     "nx, ny, degree or harmonics is given")
     n_steps: int = option(200, "BDF2 steps of the first-passage reliability march per 5 "
                           "mean times (at most 8 n_steps in all)", "int", lo=10,
                           hi=10 ** 6, modes=FP)
@@ -140,8 +150,13 @@ class Options(_Options):
                             "float", lo=0.0, hi=20.0)
     wall_grading: float | None = option(None, "clustering of the x-nodes toward each wall "
                                         "with r < 1: x_w − x ∝ s^power (1: uniform)",
-                                        "float", lo=1.0, hi=4.0,
-                                        auto="2 in the rtol solve, else 1 (uniform)")
+                                        "float", lo=1.0, hi=4.0, modes=DENSP,
+                                        auto="2 in the rtol solve, else 1 (uniform); "
+                                             "periodic: 2 with a wall r < 1")
+    harmonics: int | None = option(None, "K, the highest time harmonic of the periodic "
+                                   "density kept", "int", lo=1, hi=MAX_HARMONICS, modes=PE,
+                                   reduced=4, auto="raised from 4 by 4 until ‖p_K‖ < "
+                                   "rtol/10 (relative to ‖p_0‖)")
     positivity: bool | str = option(PerMode("auto", False),
                                     "non-negative discretisation (degree 1): the positive "
                                     "tensor-grid generator, or algebraic upwinding "
@@ -172,6 +187,17 @@ class Options(_Options):
                                  scene="fem.mesh, fem.nx, fem.ny (built from them)",
                                  auto="built from the mesh options")
 
+    @classmethod
+    def reduce(cls, mode: str, given: dict[str, Any]) -> dict[str, Any]:
+        """As the base; a reduced periodic run has smaller caps
+        (:data:`~fpk_vibro.fem.periodic_options.REDUCED`: each harmonic is a
+        stationary-sized solve), not an rtol."""
+        out = super().reduce(mode, given)
+        if mode == "periodic":
+            out.pop("rtol", None)
+            out.update({k: min(out.get(k) or cap, cap) for k, cap in REDUCED.items()})
+        return out
+
     # -- rules joining options ----------------------------------------------------
     def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = False) -> None:
         """Every rule joining the options to each other and to ``system``."""
@@ -183,6 +209,9 @@ class Options(_Options):
         def bad(name: str, msg: str) -> InputError:
             return InputError(f"{where}: {name} {msg}", where=where, name=name)
 
+        if mode == "periodic":           # rules of fem.periodic's own keywords
+            validate_periodic(self, system, where)
+            return
         if mode == "first_passage":      # a mesh of the safe set, built by the solver
             if self.degree > 2:
                 raise invalid(where, "degree", "an integer in [1, 2] (the isoparametric "
@@ -348,6 +377,8 @@ class Options(_Options):
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
         """Memory, DOFs × steps and seconds (constants: docs/costs.md); first
         passage: :func:`passage_cost` of one part."""
+        if mode == "periodic":
+            return periodic_cost(self, system)
         if mode == "first_passage":
             nx = PASSAGE_NX if self.nx is None else self.nx
             return passage_cost(system, nx, 2 * nx if self.ny is None else self.ny,

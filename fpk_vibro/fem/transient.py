@@ -177,7 +177,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         finished ones, each with ``partial=True`` in ``info``.
     """
     from .options import Options
-    check_system("fem.transient", system)
+    check_system("fem.transient", system, forcing=True)
     t_out = parse_times(times, "fem.transient")
     gaussian = parse_initial(initial, system) if isinstance(initial, dict) else None
     opts, _ = Options.prepare(system, "transient", locals(), initial=gaussian, times=t_out)
@@ -199,6 +199,14 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         if tol is None and scheme == "bdf2":
             tol = DEFAULT_TOL          # no step given: adaptive steps by default
     disc = opts.discretisation or build(system, opts)
+    force = None
+    if system.forcing is not None:        # IMEX-BDF2: the forcing explicit
+        from .forced import ForcingTerm
+        if scheme != "bdf2" or positivity:
+            from .._checks import invalid
+            raise invalid("fem.transient", "scheme", "'bdf2' without positivity for a "
+                          "forced system (IMEX-BDF2)", scheme)
+        force = ForcingTerm(system, disc)
     p = _initial_vector(disc, initial)
     M, L = disc.M.tocsc(), disc.L.tocsc()
     lu_cache: dict[float, Any] = {}
@@ -229,13 +237,14 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         lu_cache[key] = lu_cache.pop(key)          # most recently used last
         return lu_cache[key](rhs) / a0
 
-    def step(p: np.ndarray, p_prev: np.ndarray | None, h: float, h_prev: float | None):
+    def step(p: np.ndarray, p_prev: np.ndarray | None, h: float, h_prev: float | None,
+             t_new: float = 0.0):
         if limited:      # flux factors of pⁿ: a new generator, one solve per step
             A = disc.limited_generator(p)
             return solver_of(M - h * A, reuse=False)(M @ p)
         if scheme == "theta":
             return solve(1.0, theta * h, M @ p + (1 - theta) * h * (L @ p))
-        return _bdf2(solve, M, p, p_prev, h, h_prev)
+        return _bdf2(solve, M, p, p_prev, h, h_prev, force, t_new)
 
     def done(out: list) -> list:     # error_estimate(): one richer run, on demand
         from .transient_estimate import attach
@@ -244,7 +253,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
 
     if tol is not None:
         return done(_march_adaptive(disc, p, t_out, dt, tol, solve, lu_cache, factorised,
-                                    progress))
+                                    progress, force))
     n_total = int(sum(math.ceil((b - a) / dt - 1e-9) for a, b in zip(np.r_[0.0, t_out[:-1]], t_out)))
     bar = Progress(progress, "fem.transient", total=n_total, unit="step")
     out = TransientResult()
@@ -254,8 +263,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             span = t_target - t_now
             n = int(math.ceil(span / dt - 1e-9)) if span > 0 else 0
             h = span / n if n else 0.0
-            for _ in range(n):
-                p_new = step(p, p_prev, h, h_prev)
+            for i in range(n):
+                p_new = step(p, p_prev, h, h_prev, t_now + (i + 1) * h)
                 p_prev, p, h_prev = p, p_new, h
                 steps += 1
                 if steps % 50 == 0:
@@ -270,12 +279,21 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     return done(out)
 
 
-def _bdf2(solve, M, p, p_prev, h, h_prev):
-    """One variable-step BDF2 step (implicit Euler when there is no previous state)."""
+def _bdf2(solve, M, p, p_prev, h, h_prev, force=None, t_new=0.0):
+    """One variable-step BDF2 step (implicit Euler when there is no previous state);
+    ``force(t, h, p*)``: the explicit forcing term at the step's end, p* the linear
+    extrapolation (1 + ω) pⁿ − ω pⁿ⁻¹ (IMEX-BDF2: second order, the factors of the
+    constant operator kept)."""
     if p_prev is None:
-        return solve(1.0, h, M @ p)
+        rhs = M @ p
+        if force is not None:
+            rhs = rhs + force(t_new, h, p)
+        return solve(1.0, h, rhs)
     w = h / h_prev
-    return solve((1 + 2 * w) / (1 + w), h, M @ ((1 + w) * p - (w * w / (1 + w)) * p_prev))
+    rhs = M @ ((1 + w) * p - (w * w / (1 + w)) * p_prev)
+    if force is not None:
+        rhs = rhs + force(t_new, h, (1 + w) * p - w * p_prev)
+    return solve((1 + 2 * w) / (1 + w), h, rhs)
 
 
 def _snapshot(disc: Discretisation, p: np.ndarray, t: float, **info: Any) -> FEMSolution:
@@ -294,7 +312,7 @@ def _mark_partial(out: TransientResult, t_now: float) -> None:
 
 
 def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised,
-                    progress: bool | None = None) -> list[FEMSolution]:
+                    progress: bool | None = None, force=None) -> list[FEMSolution]:
     """BDF2 with step-size control by Milne's device (see :func:`transient`).
 
     Every step matrix is a rung M − g L of the ladder g = g_max·2^(−k/LADDER),
@@ -329,7 +347,7 @@ def _march_adaptive(disc, p, t_out, dt_max, tol, solve, lu_cache, factorised,
                     h = h_prev * ((2 * c - 1) + math.sqrt((2 * c - 1) ** 2 + 4 * c)) / 2
                     p_prev = prev[1]
                 t_new = t_now + h
-                p_new = _bdf2(solve, M, hist[-1][1], p_prev, h, h_prev)
+                p_new = _bdf2(solve, M, hist[-1][1], p_prev, h, h_prev, force, t_new)
                 err = 0.0
                 if len(hist) == 3:         # quadratic extrapolation: error O(h³), like BDF2
                     err = (2.0 / 11.0) * float(disc.unit @ np.abs(p_new - _lagrange(hist, t_new)))

@@ -49,57 +49,8 @@ KINDS = {"energy": CK.FP_ENERGY, "displacement": CK.FP_DISPLACEMENT,
          "impact_speed": CK.FP_SPEED}
 
 
-#: Threads per block of the stationary and first-passage kernels (the benchmark
-#: compares 128 and 256).
-THREADS_PER_BLOCK = 128
-#: Steps per stationary launch at most (keeps per-block uint32 histogram counts exact).
-LAUNCH_STEPS_MAX = 1 << 22
-
-
-def _tpb() -> int:
-    return 32 if simulator() else THREADS_PER_BLOCK
-
-
-def _flat(p) -> np.ndarray:
-    return np.ascontiguousarray(np.array(tuple(p), dtype=np.float64))
-
-
-class _Deferred:
-    """Ctrl-C held back while a chunk's launches are queued (main thread only), then
-    delivered: a chunk is queued whole or not at all, and a queued chunk completes
-    on the GPU whatever the host does, so the interrupted run counts it."""
-
-    def __enter__(self):
-        import signal
-        import threading
-        self.got, self.old = [], None
-        if threading.current_thread() is threading.main_thread():
-            self.old = signal.signal(signal.SIGINT, lambda *a: self.got.append(a))
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-        if self.old is not None:
-            signal.signal(signal.SIGINT, self.old)
-            if self.got and exc[0] is None:
-                if callable(self.old):
-                    self.old(*self.got[0])
-                raise KeyboardInterrupt
-        return False
-
-
-def block_map(starts: np.ndarray, i0: int, i1: int, tpb: int):
-    """Blocks of at most ``tpb`` paths, each within one batch, covering paths
-    i0 .. i1 − 1: (batch of each block, its [first, end) paths, first block of each
-    batch (nb + 1 entries))."""
-    lo = np.clip(starts[:-1], i0, i1)
-    hi = np.clip(starts[1:], i0, i1)
-    cnt = (hi - lo + tpb - 1) // tpb
-    bstart = np.concatenate([[0], np.cumsum(cnt)]).astype(np.int64)
-    blk_b = np.repeat(np.arange(starts.size - 1, dtype=np.int64), cnt)
-    first = lo[blk_b] + (np.arange(blk_b.size) - bstart[blk_b]) * tpb
-    blk_i = np.stack([first, np.minimum(first + tpb, hi[blk_b])], axis=1).astype(np.int64)
-    return blk_b, blk_i, bstart
+from ._cuda_launch import (LAUNCH_STEPS_MAX, THREADS_PER_BLOCK, _Deferred, _flat,  # noqa: E402,F401
+                           _tpb, block_map)
 
 
 class Ensemble:
@@ -161,20 +112,21 @@ class Ensemble:
                 self.n, i0 + LAUNCH_THREADS), tpb)) for i0 in range(0, self.n, LAUNCH_THREADS)]}
         return self._maps[key]
 
-    def _chunk(self, kern, segs, m, step0, sample_every, args, part, sums, tpb):
-        """Queue one chunk of m steps: every segment's launch, then its fold."""
+    def _chunk(self, kern, segs, m, step0, sample_every, args, part, sums, tpb, tail=()):
+        """Queue one chunk of m steps: every segment's launch, then its fold
+        (``tail``: the kernel's last arguments, the forcing's)."""
         nk = sums.shape[0] * sums.shape[1]
         for blk_b, blk_i, bstart in segs:
             if blk_b.size == 0:
                 continue
             kern[blk_b.size, tpb](*self._state, blk_b, blk_i, m, step0, sample_every,
-                                  self.t, *args)
+                                  self.t, *args, *tail)
             self.K.fold[(nk + 127) // 128, 128](part, bstart, sums)
 
     def advance(self, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp,
                 xext, hH, hx, hy, hj, threads=None, walls=None, speeds=None, law=None,
-                extra=None, last=None, energies=None, gaps=None, *, p2=None,
-                out2=None) -> None:
+                extra=None, last=None, energies=None, gaps=None, t0=0.0, periodic=None,
+                *, p2=None, out2=None) -> None:
         """:func:`._kernel.advance` on the GPU: the same arguments and sums (``rng``,
         ``threads`` and ``law`` unused: the streams and the laws live on the GPU);
         ``xs``, ``ys`` receive the new states; ``starts`` None: equal batches.
@@ -190,9 +142,18 @@ class Ensemble:
         speeds, energies, gaps (and extra) for the 2h path; ``n_steps``, ``step0`` and
         ``sample_every`` must then be even.
 
+        ``t0``: the time of the states on entry (with forcing, ``ip.forced``, step k
+        of the call kicks with F cos(Ω (t0 + k h) + φ0), as on the CPU);
+        ``periodic``: the CPU's phase-resolved sampling tables
+        (:func:`._cuda_periodic.advance`).
+
         Ctrl-C: the chunks finished (and one already queued) are added to the sums,
         ``xs``/``ys`` receive the states, and the KeyboardInterrupt propagates.
         """
+        if periodic is not None:
+            from ._cuda_periodic import advance as advance_periodic
+            return advance_periodic(self, xs, ys, starts, n_steps, step0, p, ip, mom, imp,
+                                    xext, hH, hx, hy, hj, walls, extra, t0, periodic)
         nc = self.K.cuda
         nb = mom.shape[0]
         if self.paired and (n_steps % 2 or step0 % 2 or sample_every % 2):
@@ -219,8 +180,10 @@ class Ensemble:
         tpb = _tpb()
         segs = self._segments(starts, tpb)
         part = nc.device_array((max(int(sg[0].size) for sg in segs) if segs else 1, ks))
+        forced = bool(getattr(ip, "forced", 0))
         kern = self.K.stationary(self.paired, track, *host,
-                                 tuple(host2) if self.paired else ())
+                                 tuple(host2) if self.paired else (), forced=forced)
+        fo = (float(p.f_amp), float(p.f_omega), float(p.f_phase), float(t0))
         self._state = (self.x, self.y, self.tl, self.wl, self.s0, self.s1, self.xc, self.yc,
                        self.tlc, self.wlc)
         args = (pf, pf if pf2 is None else pf2, int(ip.has_d2), int(ip.max_impacts),
@@ -232,7 +195,7 @@ class Ensemble:
                 m = min(per, n_steps - done)
                 with _Deferred():
                     self._chunk(kern, segs, m, step0 + done, sample_every, args, part,
-                                sums, tpb)
+                                sums, tpb, fo + (done,))
                     queued = m
                 nc.synchronize()
                 done, queued = done + m, 0
@@ -438,15 +401,18 @@ def first_passage(system, kind: str, value: Any, x0s: np.ndarray, y0s: np.ndarra
 def steps_given(system, dt: float, xs: np.ndarray, ys: np.ndarray, zs: np.ndarray,
                 max_impacts: int = 64, target: str = "cuda", speeds: int = 0,
                 u_iw: float = 0.0, energies: int = 0, e_iw: float = 0.0, gaps: int = 0,
-                g_iw: float = 0.0, track: bool = False, t0: float = 0.0):
+                g_iw: float = 0.0, track: bool = False, t0: float = 0.0, p=None):
     """Paths (xs, ys) stepped from time ``t0`` with the normals ``zs[k, j]`` on
     ``target`` ("cuda" or "cpu", the same functions): returns (x, y, time and wall of
     the last impact, per-path wall sums [n, 8], speed histogram [2, speeds], energy
     histogram [2, energies], gap histogram [gaps], per-path gap records [n, 2, NX]
-    (``track``))."""
+    (``track``)).  A forced system's kicks add F cos(Ω (t0 + k dt) + φ0); ``p``: the
+    step records to use instead of the system's (a test's zero forcing)."""
     from ._flight import NX
     from ._scalar_step import given_cpu
-    p, ip = S.step_params(system, dt, max_impacts)
+    p0, ip = S.step_params(system, dt, max_impacts)
+    p = p0 if p is None else p
+    forced = bool(ip.forced) or p.f_amp != 0.0
     pf = _flat(p)
     walls = encode_walls(system)
     x = np.array(xs, dtype=float)
@@ -464,8 +430,9 @@ def steps_given(system, dt: float, xs: np.ndarray, ys: np.ndarray, zs: np.ndarra
     args = (float(t0), pf, int(ip.has_d2), int(ip.max_impacts), *walls)
     if target == "cpu":
         ia = np.array([CK._F[k] for k in ("a", "b", "hh", "ec", "sd0", "d1s2", "d2s2", "lo",
-                                           "hi", "f_lo", "f_hi")])
-        given_cpu(x, y, tl, wl, zs, *args, out, hu, he, hg, accs, iw, ia)
+                                           "hi", "f_lo", "f_hi", "f_amp", "f_omega",
+                                           "f_phase")])
+        given_cpu(x, y, tl, wl, zs, *args, out, hu, he, hg, accs, iw, ia, forced)
         return x, y, tl, wl, out, hu, he, hg, accs
     K = CK.kernels()
     nc = K.cuda
@@ -474,6 +441,6 @@ def steps_given(system, dt: float, xs: np.ndarray, ys: np.ndarray, zs: np.ndarra
     tpb = _tpb()
     K.given[(x.size + tpb - 1) // tpb, tpb](
         *d, *(nc.to_device(a) if isinstance(a, np.ndarray) else a for a in args), *dw,
-        nc.to_device(np.array(iw)))
+        nc.to_device(np.array(iw)), forced)
     nc.synchronize()
     return tuple(a.copy_to_host() for a in d[:4]) + tuple(a.copy_to_host() for a in dw)

@@ -128,7 +128,7 @@ def build(jit, step, normal2, uniform, seed, restitution):
             lb0 = lb
             (x, y, f, tl, wl, nl, nr, ul, ur, ql, qr, el, er, um, xm, ym) = step(
                 x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, kinds,
-                par, tab_u, tab_r, has_d2, maxk, 0.0, -1.0, 0, rec)
+                par, tab_u, tab_r, has_d2, maxk, 0.0, -1.0, 0, rec, -0.0, -0.0)
             k += 1
             if kind == FP_ENERGY:
                 g = x * x * (0.5 * a + 0.25 * bcub * x * x)

@@ -45,6 +45,7 @@ PA, PB, PHH, PEC, PSD0, PD1S2, PD2S2, PLO, PHI, PGD = (
 PH0, PHIW, PX0, PXIW, PY0, PYIW, PJX0, PJXIW, PJY0, PJYIW = (
     _F[k] for k in ("h0", "h_iw", "x0", "x_iw", "y0", "y_iw", "jx0", "jx_iw", "jy0", "jy_iw"))
 PFLO, PFHI, PUWL, PUWR = (_F[k] for k in ("f_lo", "f_hi", "u_iw_left", "u_iw_right"))
+PFA, PFO, PFP = (_F[k] for k in ("f_amp", "f_omega", "f_phase"))
 
 
 #: Histogram cells per block in shared memory at most (uint32 counts of one batch).
@@ -69,6 +70,7 @@ _step = None         # the step counting impact records
 _step0 = None        # the step without them
 _normal2 = None
 _hidx = None
+_forc = None         # the harmonic force at a step (:func:`._scalar_step.forcing_at`)
 _FP = None           # the device build of :mod:`._cuda_fp`
 _seed = None
 _K = None
@@ -134,9 +136,12 @@ def _fold_py(part, bstart, sums):
         sums[b, q] = s
 
 
-def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared):
-    """The stationary kernel for one configuration (module docstring)."""
+def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
+    """The stationary kernel for one configuration (module docstring); ``forced``:
+    the kicks add the harmonic force (:func:`._scalar_step.forcing_at`, step k of the
+    call at t0 + 2 hh (kf0 + k)), else −0.0 (the unforced step bit for bit)."""
     step = _step if wh else _step0
+    forc = _forc
     normal2 = _normal2
     hidx = _hidx
     msample = _msample
@@ -203,7 +208,8 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared):
 
     def kern(xs, ys, tls, wls, rs0, rs1, xcs, ycs, tlcs, wlcs, blk_b, blk_i, n_steps,
              step0, sample_every, t0, pf, pf2, has_d2, maxk, kinds, par, tab_u, tab_r, iwa,
-             part, ext, hH, hx, hy, hj, hu, he, hg, ext2, hH2, hx2, hy2, hj2, hu2, he2, hg2):
+             part, ext, hH, hx, hy, hj, hu, he, hg, ext2, hH2, hx2, hy2, hj2, hu2, he2, hg2,
+             famp, fom, fph, tf, kf0):
         blk = cuda.blockIdx.x
         tid = cuda.threadIdx.x
         bd = cuda.blockDim.x
@@ -275,14 +281,23 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared):
             cnt = sample_every - step0 % sample_every if sample_every > 0 else -1
             z2 = 0.0
             zprev = 0.0
+            g0 = -0.0
+            g1 = -0.0
+            gp = -0.0
+            if forced:
+                g1 = forc(famp, fom, fph, tf, hh, kf0)
             for k in range(n_steps):
                 if k % 2 == 0:
                     z, z2, s0, s1 = normal2(s0, s1)
                 else:
                     z = z2
+                if forced:
+                    gp = g0
+                    g0 = g1
+                    g1 = forc(famp, fom, fph, tf, hh, kf0 + k + 1)
                 (x, y, f, tl, wl, nl, nr, ul, ur, ql, qr, el, er, um, xm, ym) = step(
                     x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, kinds, par,
-                    tab_u, tab_r, has_d2, maxk, t, tl, wl, rec)
+                    tab_u, tab_r, has_d2, maxk, t, tl, wl, rec, g0, g1)
                 if nl + nr > 0:
                     w = wadd(w, nl, nr, ul, ur, ql, qr, el, er)
                     umax = max(umax, um)
@@ -292,7 +307,8 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared):
                         (xc, yc, fc, tlc, wlc, nl, nr, ul, ur, ql, qr, el, er, um, xm,
                          ym) = step(xc, yc, fc, zc, pf2[PHH], pf2[PEC], pf2[PSD0], pf2[PD1S2],
                                     pf2[PD2S2], a, bcub, lo, hi, flo, fhi, kinds, par, tab_u,
-                                    tab_r, has_d2, maxk, t - hh * 2.0, tlc, wlc, rec2)
+                                    tab_r, has_d2, maxk, t - hh * 2.0, tlc, wlc, rec2, gp,
+                                    g1)
                         if nl + nr > 0:
                             w2 = wadd(w2, nl, nr, ul, ur, ql, qr, el, er)
                             umax2 = max(umax2, um)
@@ -359,9 +375,9 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared):
     return cuda.jit(kern)
 
 
-def stationary(paired, track, hH, hx, hy, hj, hu, he, hg, hists2=()):
+def stationary(paired, track, hH, hx, hy, hj, hu, he, hg, hists2=(), forced=False):
     """The stationary kernel for these arrays' sizes (compiled once per configuration);
-    ``track``: the gaps between impacts are recorded."""
+    ``track``: the gaps between impacts are recorded; ``forced``: harmonic forcing."""
     _base()
     nbh, nbx, nby = hH.shape[1], hx.shape[1], hy.shape[1]
     njx, njy = hj.shape[1], (hj.shape[2] if hj.shape[1] > 0 else 0)
@@ -374,14 +390,14 @@ def stationary(paired, track, hH, hx, hy, hj, hu, he, hg, hists2=()):
                              "the same sizes as the fine path's")
     tot = nbh + nbx + nby + njx * njy
     shared = 0 < tot <= SHARED_CELLS
-    key = (bool(paired), nbh, nbx, nby, njx, njy, bool(wh), shared)
+    key = (bool(paired), nbh, nbx, nby, njx, njy, bool(wh), shared, bool(forced))
     if key not in _STAT:
         _STAT[key] = _make_stationary(*key)
     return _STAT[key]
 
 
 def _given_py(xs, ys, tls, wls, zs, t0, pf, has_d2, maxk, kinds, par, tab_u, tab_r, out,
-              hu, he, hg, accs, iwa):
+              hu, he, hg, accs, iwa, forced):
     """Thread j: the steps of path j with the given normals ``zs[k, j]`` (the tests'
     comparison with the CPU); ``out[j]`` += impacts and Σu, Σu², loss per wall, its
     gap records in ``accs[j]``."""
@@ -399,10 +415,15 @@ def _given_py(xs, ys, tls, wls, zs, t0, pf, has_d2, maxk, kinds, par, tab_u, tab
     t = t0
     rec = (hu, he, hg, accs[j], (iwa[0], iwa[1], iwa[2], iwa[3], iwa[4], iwa[5]))
     for k in range(zs.shape[0]):
+        g0 = -0.0
+        g1 = -0.0
+        if forced:
+            g0 = _forc(pf[PFA], pf[PFO], pf[PFP], t0, hh, k)
+            g1 = _forc(pf[PFA], pf[PFO], pf[PFP], t0, hh, k + 1)
         (x, y, f, tl, wl, nl, nr, ul, ur, ql, qr, el, er, um, xm, ym) = _step(
             x, y, f, zs[k, j], hh, pf[PEC], pf[PSD0], pf[PD1S2], pf[PD2S2], a, bcub,
             pf[PLO], pf[PHI], pf[PFLO], pf[PFHI], kinds, par, tab_u, tab_r, has_d2, maxk,
-            t, tl, wl, rec)
+            t, tl, wl, rec, g0, g1)
         t += 2.0 * hh
         out[j, 0] += nl
         out[j, 1] += ul
@@ -429,7 +450,7 @@ def _seed_py(rs0, rs1, sd, i0):
 
 def _base():
     """Compile the device functions (once)."""
-    global cuda, _step, _step0, _normal2, _hidx, _FP, _seed
+    global cuda, _step, _step0, _normal2, _hidx, _FP, _seed, _forc
     if _FP is not None:
         return
     from . import _cuda_fp, _cuda_rng, _device, _scalar_step
@@ -445,6 +466,7 @@ def _base():
     R = _cuda_rng.build(dev, sincospi)
     _step, _step0, _normal2, _seed = S.step, S0.step, R.normal2, R.seed
     _hidx = dev(_hist_index.py_func)
+    _forc = dev(_scalar_step.forcing_at)
     g = globals()
     for name in ("_batch", "_msample", "_wadd", "_gsums", "_maxima"):
         g[name] = dev(g[name])

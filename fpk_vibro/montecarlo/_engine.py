@@ -52,10 +52,11 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
             K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
                       xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu,
                       law, extra, last, hist.he, hist.hg, t0=t0 + done * 2.0 * p.hh)
-        else:           # (the GPU step has no forcing: refused before, in _ensemble)
+        else:
             ens.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom,
                         imp, xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls,
-                        hist.hu, law, extra, last, hist.he, hist.hg)
+                        hist.hu, law, extra, last, hist.he, hist.hg,
+                        t0=t0 + done * 2.0 * p.hh)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -72,11 +73,6 @@ def _ensemble(system, opts, mode, xs, ys, child):
     ``child``."""
     from . import _device
     where = f"montecarlo.{mode}"
-    if getattr(system, "forcing", None) is not None:
-        if opts.device == "cuda":
-            raise InputError(f"{where}: device: the GPU engine has no forcing yet; use "
-                             "device = \"cpu\"", where=where, name="device")
-        return None, "cpu"
     if _device.resolve(opts.device, where) == "cpu":
         return None, "cpu"
     from . import _cuda_engine
@@ -180,7 +176,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         result type (``info["device"]`` names the GPU); its random streams differ
         from the CPU's, so the numbers agree within their standard errors.  "auto":
         the GPU when one is usable, else the CPU.  Without a GPU "cuda" is refused
-        in one line.  Forced systems run on the CPU only.
+        in one line.
 
     Returns
     -------

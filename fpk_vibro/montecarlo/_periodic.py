@@ -1,9 +1,12 @@
 """The periodic response by Monte Carlo: :func:`periodic` (docs/theory.md, §Harmonic forcing).
 
 Paths start as the stationary run's do (x at 0, y Gaussian at the energy scale) at
-t = 0 (phase φ0) and are burned in for whole periods: the stationary rule, 6
-relaxation times 6/λ (λ = c, or the impact loss rate where c = 0), rounded up to
-periods.  Then every period is sampled on the grid of :mod:`._periodic_grid`: each
+t = 0 (phase φ0) and are burned in for whole periods: 12 relaxation times 12/λ (λ the
+stationary run's energy relaxation rate: c, or the impact loss rate where c = 0),
+rounded up to periods.  The forced mean's transient decays at half the energy's rate
+(e^{−ct/2} for the linear oscillator), so the stationary 6/λ left e⁻³ ≈ 5 % of the
+mean amplitude (a 5 % low amplitude at resonance, c = 0.05); 12/λ leaves e⁻⁶ ≈ 0.25 %
+(:data:`.options.FORCED_BURN`).  Then every period is sampled on the grid of :mod:`._periodic_grid`: each
 requested phase averages over its bin (``phase_bin``), the period average samples
 ``N_HARM`` equally spaced phases of every period, and E[x] at those phases gives the
 first harmonic x̄ + A cos(φ − θ) by the discrete Fourier coefficients.  Standard
@@ -27,7 +30,7 @@ from . import _kernel as K
 from . import _setup as S
 from ._engine import _ensemble, _run_chunks
 from ._flight import LEFT, NX, RIGHT, W_N, W_Q, W_U, X_E
-from ._periodic_grid import N_HARM, Slots, steps_per_period
+from ._periodic_grid import N_HARM, Slots
 from ._summary import _check_finite, _ratio, _reduce
 from .estimate import bias_factor, interruption_note, second_run
 from .options import Options
@@ -109,14 +112,17 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
     n_periods : int, optional
         Sampled periods per path; default the larger of 64 and 40 relaxation times.
     burn_periods : int, optional
-        Burn-in in periods; default the stationary burn-in 6/λ (λ the slowest
-        energy relaxation rate, :func:`stationary`) rounded up to whole periods.
+        Burn-in in periods; default 12/λ (λ the slowest energy relaxation rate,
+        :func:`stationary`; the forced mean relaxes at λ/2, so 6 of its e-folds)
+        rounded up to whole periods.
     seed, bins, n_batches, max_impacts, progress, threads
         As in :func:`stationary` (``bins`` default 60).
     quantities : sequence of {"energy", "x", "y", "joint"}
         Histograms of each phase and of the average.
-    device : {"cpu", "auto"}
-        "cuda" is refused in one line: the GPU engine has no forcing yet.
+    device : {"cpu", "cuda", "auto"}
+        As in :func:`stationary`: on "cuda" each path is a GPU thread sampling the
+        same phase slots (:mod:`._cuda_periodic`); its streams differ from the CPU's,
+        so the numbers agree within their standard errors.
 
     Returns
     -------
@@ -131,21 +137,18 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
     """
     where = "montecarlo.periodic"
     phases = check_phases(where, phases)
-    opts, _ = Options.prepare(system, "periodic", locals())
-    if system.forcing is None:
+    if getattr(system, "forcing", None) is None:
         raise InputError(f"{where}: system: a forced system (forcing=Harmonic(...)); got "
                          "one without forcing (use montecarlo.stationary)", where=where,
                          name="system")
+    opts, _ = Options.prepare(system, "periodic", locals())
     fo = system.forcing
     T, phi0 = fo.period, fo.phase
     n_paths, n_batches, nb = opts.n_paths, opts.n_batches, opts.n_batches
-    r = opts.resolved(system, "periodic")
-    M = _steps if _steps is not None else steps_per_period(T, r["dt"], phases, phi0)
+    plan = opts.periodic_plan(system, phases)
+    M = _steps if _steps is not None else plan["M"]
     h = T / M
-    lam = r["lam"]
-    n_per = opts.n_periods or max(64, math.ceil(40.0 / (lam * T)))
-    n_burn_per = opts.burn_periods if opts.burn_periods is not None else \
-        math.ceil(S.default_t_burn(system) / T - 1e-9)
+    n_per, n_burn_per = plan["n_periods"], plan["burn_periods"]
     quantities = opts.quantities
     bins = S.check_bins("bins", opts.bins, None)
     ss = S.seed_sequence(opts.seed)
@@ -157,7 +160,7 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
     starts = S.block_starts(n_paths, nb)
     xs = np.full(n_paths, S.initial_x(system))
     ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
-    _ensemble(system, opts, "periodic", xs, ys, children[0])     # refuses "cuda"
+    ens, device = _ensemble(system, opts, "periodic", xs, ys, children[0])
     p, ip = S.step_params(system, h, opts.max_impacts)
     law = S.wall_laws(system)
     slots = Slots(phases, phi0, M, float(opts.phase_bin))
@@ -169,7 +172,8 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
     junk = (np.zeros((nb, K.NM)), np.zeros((nb, 2)), np.tile([np.inf, -np.inf], (nb, 1)))
     try:
         _run_chunks(xs, ys, rng, starts, n_burn_per * M, 0, 0, p, ip, *junk, none,
-                    n_paths, prog, "burn-in", (0.0, 0.1), threads=opts.threads, law=law)
+                    n_paths, prog, "burn-in", (0.0, 0.1), threads=opts.threads, law=law,
+                    ens=ens)
     except KeyboardInterrupt:
         prog.close("(interrupted during burn-in: nothing sampled)")
         raise
@@ -188,12 +192,14 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
     pimp = np.zeros((slots.n_steps * nb, 2, 5))
     tables = (M, slots.slot_of, slots.step_slot, s_avg, mh, xeh, pimp)
     partial = False
-    chunk = max(M, S.CHUNK_PATH_STEPS // max(n_paths, 1) // M * M)
+    per = S.CHUNK_PATH_STEPS if ens is None else ens.chunk_path_steps
+    chunk = max(M, per // max(n_paths, 1) // M * M)
+    advance = K.advance if ens is None else ens.advance
     done, total = 0, n_per * M
     try:
         while done < total:
             n = min(chunk, total - done)
-            K.advance(xs, ys, rng, starts, n, done % M, 0, p, ip, mom, imp, xext, hist.hH,
+            advance(xs, ys, rng, starts, n, done % M, 0, p, ip, mom, imp, xext, hist.hH,
                       hist.hx, hist.hy, hist.hj, opts.threads, wimp, None, law, extra,
                       t0=(done % M) * h, periodic=tables)
             done += n
@@ -209,7 +215,7 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
     meta = dict(n_paths=n_paths, n_batches=nb, t_burn=float(n_burn_per * T),
                 t_sample=float(done * h), time=None, seed_entropy=ss.entropy,
                 partial=partial, sample_every=s_avg, quantities=list(quantities),
-                mode=system.barriers, spawn_key=list(ss.spawn_key), device="cpu",
+                mode=system.barriers, spawn_key=list(ss.spawn_key), device=device,
                 phase_bin=float(opts.phase_bin))
 
     def view(rows_w: dict[int, float]):
@@ -252,7 +258,8 @@ def periodic(system: VibroImpactSystem, phases: Any, *, n_paths: int = 2048,
                         phase_bin=opts.phase_bin, n_periods=n_per,
                         burn_periods=n_burn_per, seed=np.random.SeedSequence(**family),
                         quantities=(), n_batches=nb, max_impacts=opts.max_impacts,
-                        progress=opts.progress, threads=opts.threads, _steps=M2)
+                        progress=opts.progress, threads=opts.threads, device=opts.device,
+                        _steps=M2)
 
     _attach_estimate(out, again, h)
     return out

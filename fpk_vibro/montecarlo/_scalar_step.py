@@ -40,7 +40,7 @@ import numpy as np
 from ._flight import X_G0, X_GL, X_GM, X_GR
 from ._laws import encode, restitution_py
 
-__all__ = ["build", "encode_walls", "CPU", "N_OUT"]
+__all__ = ["build", "encode_walls", "forcing_at", "CPU", "N_OUT"]
 
 #: Length of the tuple :func:`build`'s ``step`` returns.
 N_OUT = 16
@@ -175,14 +175,19 @@ def build(jit, add2, add1, counting=True):
     flight = jit(flight)
 
     def step(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, kinds, par,
-             tab_u, tab_r, has_d2, maxk, t0, tlast, wlast, rec):
-        """One step from time t0; f = F(x) on entry and on return.  Returns (x, y, f,
-        tlast, wlast, nl, nr, Σu l, Σu r, Σu² l, Σu² r, loss l, loss r, largest u, x
-        after the first flight, y after the O step)."""
-        y += hh * f
+             tab_u, tab_r, has_d2, maxk, t0, tlast, wlast, rec, g0, g1):
+        """One step from time t0; f = F(x) on entry and on return (the restoring force
+        alone).  ``g0``, ``g1``: the harmonic force at the step's start and end (as the
+        CPU engine's :func:`._kernel._step_core`: g0 in the opening kick and the first
+        flight's wall force, g1 in the second flight's and the closing kick); −0.0
+        where there is none (x + (−0.0) is x bit for bit, so the unforced step is
+        unchanged and a compiler drops the additions).  Returns (x, y, f, tlast,
+        wlast, nl, nr, Σu l, Σu r, Σu² l, Σu² r, loss l, loss r, largest u, x after
+        the first flight, y after the O step)."""
+        y += hh * (f + g0)
         x, y, tlast, wlast, nl, nr, ul, ur, ql, qr, el, er, um = flight(
-            x, y, hh, -hh, lo, hi, flo, fhi, kinds, par, tab_u, tab_r, maxk, t0, tlast,
-            wlast, rec)
+            x, y, hh, -hh, lo, hi, flo + g0, fhi + g0, kinds, par, tab_u, tab_r, maxk, t0,
+            tlast, wlast, rec)
         xm = x
         if has_d2:
             y = ec * y + math.sqrt(d1s2 + d2s2 * x * x) * z
@@ -190,11 +195,11 @@ def build(jit, add2, add1, counting=True):
             y = ec * y + sd0 * z
         ym = y
         x, y, tlast, wlast, nl2, nr2, ul2, ur2, ql2, qr2, el2, er2, um2 = flight(
-            x, y, hh, 0.0, lo, hi, flo, fhi, kinds, par, tab_u, tab_r, maxk, t0 + hh, tlast,
-            wlast, rec)
+            x, y, hh, 0.0, lo, hi, flo + g1, fhi + g1, kinds, par, tab_u, tab_r, maxk,
+            t0 + hh, tlast, wlast, rec)
         f = -(a + bcub * x * x) * x
-        return (x, y + hh * f, f, tlast, wlast, nl + nl2, nr + nr2, ul + ul2, ur + ur2,
-                ql + ql2, qr + qr2, el + el2, er + er2, max(um, um2), xm, ym)
+        return (x, y + hh * (f + g1), f, tlast, wlast, nl + nl2, nr + nr2, ul + ul2,
+                ur + ur2, ql + ql2, qr + qr2, el + el2, er + er2, max(um, um2), xm, ym)
 
     step = jit(step)
 
@@ -225,11 +230,27 @@ CPU = _cpu()
 _cpu_step = CPU.step
 
 
+def forcing_at(amp, omega, phase, t0, hh, k):
+    """The harmonic force F cos(Ω t_k + φ0) at step k's start t_k = t0 + k h, computed
+    as the CPU engine's ``advance`` does (t0 + 2 hh k, then Ω t + φ0), so every target
+    evaluates the kicks at the same rounded times."""
+    return amp * math.cos(omega * (t0 + 2.0 * hh * k) + phase)
+
+
+def _compile_forcing():
+    from numba import njit
+    return njit(inline="always")(forcing_at)
+
+
+_forcing_cpu = _compile_forcing()
+
+
 def _given_cpu(xs, ys, tls, wls, zs, t0, pf, has_d2, maxk, kinds, par, tab_u, tab_r,
-               out, hu, he, hg, accs, iw, ia):
+               out, hu, he, hg, accs, iw, ia, forced):
     """The CPU reference of the GPU's ``given`` kernel (:mod:`._cuda_kernels`): path j
     stepped with the normals ``zs[k, j]``, its gap records in ``accs[j]``; ``ia``:
-    the positions of a, b, hh, ec, sd0, d1s2, d2s2, lo, hi, f_lo, f_hi in ``pf``."""
+    the positions of a, b, hh, ec, sd0, d1s2, d2s2, lo, hi, f_lo, f_hi, f_amp,
+    f_omega, f_phase in ``pf``; ``forced``: the harmonic force (:func:`forcing_at`)."""
     for j in range(xs.shape[0]):
         a = pf[ia[0]]
         bcub = pf[ia[1]]
@@ -242,10 +263,15 @@ def _given_cpu(xs, ys, tls, wls, zs, t0, pf, has_d2, maxk, kinds, par, tab_u, ta
         t = t0
         rec = (hu, he, hg, accs[j], iw)
         for k in range(zs.shape[0]):
+            g0 = -0.0
+            g1 = -0.0
+            if forced:
+                g0 = _forcing_cpu(pf[ia[11]], pf[ia[12]], pf[ia[13]], t0, hh, k)
+                g1 = _forcing_cpu(pf[ia[11]], pf[ia[12]], pf[ia[13]], t0, hh, k + 1)
             (x, y, f, tl, wl, nl, nr, ul, ur, ql, qr, el, er, um, xm, ym) = _cpu_step(
                 x, y, f, zs[k, j], hh, pf[ia[3]], pf[ia[4]], pf[ia[5]], pf[ia[6]], a, bcub,
                 pf[ia[7]], pf[ia[8]], pf[ia[9]], pf[ia[10]], kinds, par, tab_u, tab_r,
-                has_d2, maxk, t, tl, wl, rec)
+                has_d2, maxk, t, tl, wl, rec, g0, g1)
             t += 2.0 * hh
             out[j, 0] += nl
             out[j, 1] += ul

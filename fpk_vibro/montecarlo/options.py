@@ -5,6 +5,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from .._checks import InputError, invalid
 from ..budget import MAX_SECONDS, Cost, human_seconds
 from ..model import VibroImpactSystem
@@ -27,6 +29,13 @@ DENS = ("stationary", "transient", "periodic")
 PERIODIC_DEFAULTS = {"n_paths": 2048, "bins": 60}
 #: First horizon of an adaptive first passage, in relaxation times (its cost model).
 FP_FIRST = 10.0
+#: Default burn-in of the periodic response, in relaxation times 1/λ: the forced mean's
+#: transient decays like e^{−λt/2} (the amplitude, where the energy decays like e^{−λt};
+#: e^{−ct/2} for the linear oscillator), so 12/λ gives it 6 e-folds (e⁻⁶ ≈ 0.25 % of
+#: the mean amplitude left), as 6/λ gives the noise's.  6/λ left e⁻³ ≈ 5 % of the
+#: amplitude: a = 1, c = 0.05, F = 0.05, Ω = 1 (A = 1) measured 0.955 (the windowed
+#: transient predicts 0.956), now 0.998 ± 0.006 (tests/test_montecarlo_periodic.py).
+FORCED_BURN = 12.0
 
 #: Path-steps per second of one thread (benchmark medians, docs/costs.md), kept low.
 PATH_STEPS_PER_S = 1.0e8
@@ -100,8 +109,9 @@ class Options(_Options):
                                    auto="the larger of 64 periods and 40 relaxation times")
     burn_periods: int | None = option(None, "burn-in in forcing periods", "int", lo=0,
                                       hi=10 ** 7, modes=PE,
-                                      auto="the stationary burn-in, 6 relaxation times, "
-                                      "rounded up to whole periods")
+                                      auto="12 relaxation times (6 e-folds of the forced "
+                                      "mean's transient e^(-λt/2)), rounded up to whole "
+                                      "periods")
     bridge: bool = option(True, "detect crossings between step ends by the Brownian-bridge "
                           "probability (false: step ends only, biased late)", "bool",
                           modes=FP)
@@ -136,6 +146,23 @@ class Options(_Options):
                 "max_t_sample": 1e4 / lam if self.max_t_sample is None else self.max_t_sample,
                 "sample_every": S.default_sample_every(system, dt)
                 if self.sample_every is None else self.sample_every}
+
+    def periodic_plan(self, system: VibroImpactSystem, phases: Any = ()) -> dict[str, Any]:
+        """The grid and lengths of :func:`~fpk_vibro.montecarlo.periodic`: ``M`` steps
+        per period (:func:`._periodic_grid.steps_per_period`), ``h`` = T/M,
+        ``burn_periods`` (default :data:`FORCED_BURN`/λ rounded up to periods) and
+        ``n_periods`` (default the larger of 64 and 40/λ)."""
+        from ._periodic_grid import steps_per_period
+        fo = system.forcing
+        T = fo.period
+        r = self.resolved(system, "periodic")
+        M = steps_per_period(T, r["dt"], np.asarray(phases, dtype=float), fo.phase)
+        lam = r["lam"]
+        burn = self.burn_periods if self.burn_periods is not None else \
+            math.ceil(FORCED_BURN / (lam * T) - 1e-9)
+        n_per = self.n_periods or max(64, math.ceil(40.0 / (lam * T)))
+        return {"M": M, "h": T / M, "burn_periods": int(burn), "n_periods": int(n_per),
+                "period": T, "lam": lam}
 
     def validate_for(self, system: VibroImpactSystem, mode: str, *, probe: bool = False) -> None:
         """Every rule joining the options to each other and to ``system``."""
@@ -209,6 +236,11 @@ class Options(_Options):
                 "use fem or averaging, or force it (--force)", where=where, name="dt") from None
 
     # -- cost ---------------------------------------------------------------------
+    def _estimate_periodic(self, system: VibroImpactSystem) -> Cost:
+        if getattr(system, "forcing", None) is None:      # refused by the solver
+            return Cost(150e6, 0.0, "path-steps", 1.0, "n_periods")
+        return _periodic_cost(self, system)
+
     def estimate(self, system: VibroImpactSystem, mode: str, times: Any = None) -> Cost:
         """Memory, path-steps and seconds (constants: docs/costs.md)."""
         r = self.resolved(system, mode)
@@ -221,6 +253,8 @@ class Options(_Options):
                 (PATH_STEPS_PER_S * min(self.threads or 2, 2))
             return Cost(150e6 + 64.0 * self.n_paths, float(path_steps), "path-steps",
                         seconds, "n_paths" if self.t_max is None else "t_max")
+        if mode == "periodic":
+            return self._estimate_periodic(system)
         bins = S.check_bins("bins", self.bins, None)
         n_hist = sum(S.bin_count(bins[q]) for q in ("energy", "x", "y") if q in self.quantities)
         if "joint" in self.quantities:
@@ -254,6 +288,29 @@ class Options(_Options):
                 seconds * r["dt"] / S.step_bounds(system)["period"][1] <= MAX_SECONDS:
             key = "dt"      # a fast time scale makes it costly (refused by prepare)
         return Cost(memory, float(path_steps), "path-steps", seconds, key)
+
+
+def _periodic_cost(opts: Options, system: VibroImpactSystem) -> Cost:
+    """:meth:`Options.estimate` of the periodic response: the burn-in and the sampled
+    periods of every path, plus the bias run of ``error_estimate()`` (the same periods
+    at 2 dt: half the steps), at the stationary engine's rate with a sample every
+    M/16 steps (the period average's 16 phases; a requested phase adds a few)."""
+    pl = opts.periodic_plan(system)
+    M = pl["M"]
+    periods = pl["burn_periods"] + pl["n_periods"]
+    main = opts.n_paths * periods * M
+    bias = opts.n_paths * periods * max(8, round(M / 2))
+    path_steps = main + bias
+    seconds = 1.0 + path_steps * _step_weight(system, pl["h"], max(1, M // 16)) / \
+        (PATH_STEPS_PER_S * min(opts.threads or 2, 2))
+    bins = S.check_bins("bins", opts.bins, None)
+    n_hist = sum(S.bin_count(bins[q]) for q in ("energy", "x", "y") if q in opts.quantities)
+    if "joint" in opts.quantities:
+        n_hist += S.bin_count(bins["joint"][0]) * S.bin_count(bins["joint"][1])
+    rows = 3 * 8 + 1          # ~3 grid points per phase, 8 phases, and the average
+    memory = 150e6 + 48.0 * opts.n_paths + 8.0 * opts.n_batches * (rows * n_hist + M * 10)
+    key = "n_periods" if pl["n_periods"] >= pl["burn_periods"] else "burn_periods"
+    return Cost(memory, float(path_steps), "path-steps", seconds, key)
 
 
 def _step_weight(system: VibroImpactSystem, dt: float, sample_every: int) -> float:
