@@ -252,10 +252,10 @@ def _fem_reference(system: VibroImpactSystem, **options: Any) -> Any:
 
 
 def _fem_transient_reference(system: VibroImpactSystem, *, initial: Any, times: Any,
-                             rtol: float) -> Any:
+                             **numerics: Any) -> Any:
     """The FE transient other methods are checked against (the averaged transient's
-    model error): ``fem.transient(system, initial=..., times=..., rtol=...)``."""
-    return _fem_solver("transient")(system, initial=initial, times=times, rtol=rtol)
+    model error): ``fem.transient(system, initial=..., times=..., **numerics)``."""
+    return _fem_solver("transient")(system, initial=initial, times=times, **numerics)
 
 
 def _montecarlo_passage_estimate(fp: Any, reference: Any = None) -> dict[str, Any]:

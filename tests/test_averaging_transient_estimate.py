@@ -1,6 +1,6 @@
 """The averaged transient's error estimate (issue 25): its model error at each output
 time, by the FE transient of the same system from the same initial condition
-(``fem.transient(..., rtol=1e-2)``, once per list; fpk_vibro/averaging/model_error.py).
+(``fem.transient(..., degree=4, nx=16)``, once per list; fpk_vibro/averaging/model_error.py).
 
 Judged against finer FE transients than the estimate's own levels (degree 3 or 4 on
 nx = 16, BDF2 tol 6e-4 or 1.6e-4, against degree 4 on nx = 16 or 32):
@@ -82,7 +82,7 @@ def test_estimate_within_3x_of_the_true_model_error(name, fe_calls):
     sols = averaging.transient(SYSTEMS[name], initial=PACKET, times=TIMES)
     ests = [s.error_estimate() for s in sols]
     assert len(fe_calls) == 1                               # one FE transient per list
-    assert list(fe_calls[0][1]["times"]) == TIMES and fe_calls[0][1]["rtol"] == 1e-2
+    assert list(fe_calls[0][1]["times"]) == TIMES and fe_calls[0][1]["nx"] == 16
     assert [s.error_estimate() for s in sols] == ests and len(fe_calls) == 1   # cached
     large = 0
     for sol, est, ref in zip(sols, ests, REFERENCE[name]):
@@ -93,7 +93,7 @@ def test_estimate_within_3x_of_the_true_model_error(name, fe_calls):
             large += true > 1e-2
         assert math.isfinite(est["L1"]) and est["L1"] > 0
         assert "finite-element transient" in est["assumes"] and "widens" not in est["assumes"]
-        assert "fem.transient rtol 0.01" in est["reference"]
+        assert "fem.transient Q4, nx 16" in est["reference"]
         assert sol.info["error_estimate"] == max(est[k] for k in JUDGED)
     assert large >= 4                    # the factor 3 is tested, not only the floor
     assert ests[0]["seconds"] > ests[1]["seconds"]          # the first call ran FE

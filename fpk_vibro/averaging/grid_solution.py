@@ -69,7 +69,7 @@ class EnergyGridSolution(Solution):
         the same system from the same initial condition
         (:func:`fpk_vibro.averaging.model_error.transient_model_error`): the first call
         of any member of one :func:`transient` list solves ``fem.transient(...,
-        rtol=1e-2)`` at all its times, for them all; ``reference``: an FE density at
+        degree=4, nx=16)`` at all its times, for them all; ``reference``: an FE density at
         this time of the same system (with an estimate, e.g. from
         ``fem.transient(..., rtol=...)``) used instead, replacing any estimate made
         before.
