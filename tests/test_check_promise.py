@@ -51,7 +51,7 @@ def scenes(draw):
     return scene
 
 
-@settings(max_examples=60, deadline=None, derandomize=True,
+@settings(max_examples=30, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=scenes())
 def test_a_scene_that_check_accepts_runs(tmp_path_factory, data):
