@@ -41,6 +41,32 @@ PIVOT = 0.1
 _EPS = 1.1e-16
 
 
+def mean_time_solve(L, M, unit: np.ndarray) -> tuple[np.ndarray, float, float, float]:
+    """(τ, its estimated relative rounding error, max τ, the solve's normwise backward
+    error) of −Lᵀ τ = unit on the free DOFs
+    (``L``, ``M`` restricted to them); the error is infinite where τ is not finite and
+    at least 1 where the solve broke down (a negative τ, a backward error > 1e-8)."""
+    lu = spla.splu((-L.T).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=PIVOT)
+    n = unit.size
+    with np.errstate(all="ignore"):
+        tau = lu.solve(unit)
+        # rounding: the slowest mode v of −L_ff (one inverse iteration from 1) is
+        # where the mean time lives; a perturbation eps |L| of the matrix moves its
+        # rate by about eps 1ᵀ|L||v| / unitᵀ|v|, i.e. τ by that times τ.
+        v = np.abs(lu.solve(M @ np.ones(n), trans="T"))
+        tau_max = float(np.max(tau))
+        error = _EPS * float(np.ones(n) @ (abs(L) @ v)) / float(unit @ v) * abs(tau_max)
+        # normwise backward error of the solve (a breakdown, not conditioning)
+        residual = float(np.linalg.norm(unit + L.T @ tau, np.inf)
+                         / (spla.norm(L, np.inf) * np.linalg.norm(tau, np.inf)
+                            + np.linalg.norm(unit, np.inf)))
+    if not (np.all(np.isfinite(tau)) and math.isfinite(error)):
+        error = math.inf
+    elif np.min(tau) < -NEGATIVE * tau_max or residual > 1e-8:
+        error = max(error, 1.0)       # a negative mean time: a solver breakdown
+    return tau, error, tau_max, residual
+
+
 def solve_part(system, part, H_c, nx, ny, degree, kind, value) -> dict[str, Any]:
     """τ on one part of the safe set, the start's functional, and the estimated
     relative rounding error of τ."""
@@ -51,25 +77,8 @@ def solve_part(system, part, H_c, nx, ny, degree, kind, value) -> dict[str, Any]
     fixed = basis.get_dofs(np.flatnonzero(absorbing)).all()
     free = np.setdiff1d(np.arange(basis.N), fixed)
     L, M = L[free][:, free], M[free][:, free]
-    lu = spla.splu((-L.T).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=PIVOT)
     tau = np.zeros(basis.N)
-    with np.errstate(all="ignore"):
-        tau[free] = lu.solve(unit[free])
-        # rounding: the slowest mode v of −L_ff (one inverse iteration from 1) is
-        # where the mean time lives; a perturbation eps |L| of the matrix moves its
-        # rate by about eps 1ᵀ|L||v| / unitᵀ|v|, i.e. τ by that times τ.
-        v = np.abs(lu.solve(M @ np.ones(free.size), trans="T"))
-        tau_max = float(np.max(tau[free]))
-        error = _EPS * float(np.ones(free.size) @ (abs(L) @ v)) / float(unit[free] @ v) \
-            * abs(tau_max)
-        # normwise backward error of the solve (a breakdown, not conditioning)
-        residual = float(np.linalg.norm(unit[free] + L.T @ tau[free], np.inf)
-                         / (spla.norm(L, np.inf) * np.linalg.norm(tau[free], np.inf)
-                            + np.linalg.norm(unit[free], np.inf)))
-    if not (np.all(np.isfinite(tau)) and math.isfinite(error)):
-        error = math.inf
-    elif np.min(tau[free]) < -NEGATIVE * tau_max or residual > 1e-8:
-        error = max(error, 1.0)       # a negative mean time: a solver breakdown
+    tau[free], error, tau_max, residual = mean_time_solve(L, M, unit[free])
     if kind == "point":
         probe = np.asarray(basis.probes(np.array([[value[0]], [value[1]]])).todense()).ravel()
         weights, weight = probe[free], 1.0
