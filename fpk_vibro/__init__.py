@@ -18,10 +18,11 @@ from . import _version
 from .model import VibroImpactSystem, Wall
 from .restitution import Restitution
 from .forcing import Harmonic
+from .noise import OrnsteinUhlenbeck
 from .registry import methods
 from .solution import MOMENT_KEYS, Solution
 
-__all__ = ["VibroImpactSystem", "Wall", "Restitution", "Harmonic", "Solution", "MOMENT_KEYS", "methods",
+__all__ = ["VibroImpactSystem", "Wall", "Restitution", "Harmonic", "OrnsteinUhlenbeck", "Solution", "MOMENT_KEYS", "methods",
            "averaging", "exact", "fem", "montecarlo"]
 
 

@@ -25,6 +25,7 @@ import numpy as np
 from ._checks import InputError, check_float, invalid
 from .option_schema import REQUIRED, Option
 from .forcing import Harmonic
+from .noise import OrnsteinUhlenbeck
 from .restitution import Restitution
 from .wall import R_ALLOWED, WALL_FIELDS, Wall
 
@@ -65,6 +66,10 @@ FIELDS: dict[str, Option] = {
     "forcing": Option(None, "harmonic forcing F cos(Ωt + φ0) (none by default)", "custom",
                       check=lambda n, v, w: Harmonic.of(v, w, n),
                       allowed="a table {amplitude, frequency, phase}", scene="forcing"),
+    "external": Option(None, "coloured external noise: an Ornstein–Uhlenbeck force of "
+                       "correlation time τ and intensity D1 (white by default)", "custom",
+                       check=lambda n, v, w: OrnsteinUhlenbeck.of(v, w, n),
+                       allowed="a table {tau}", scene="external"),
 }
 #: The fields that make the symmetric shorthand, and their defaults.
 SHORTHAND = {"delta": None, "r": 1.0, "barriers": "both"}
@@ -112,6 +117,11 @@ class VibroImpactSystem:
     forcing : Harmonic or None
         Deterministic forcing F cos(Ωt + φ0) (:mod:`fpk_vibro.forcing`); the response
         is then periodic in time (``fem.periodic``, ``montecarlo.periodic``).
+    external : OrnsteinUhlenbeck or None
+        Coloured external noise (:mod:`fpk_vibro.noise`): ξ1 replaced by an
+        Ornstein–Uhlenbeck force of correlation time τ and the same D1 (its spectral
+        density at zero is that of ξ1).  None: white noise.  Solved by ``fem`` and
+        ``montecarlo`` (stationary, transient).
 
     Raises
     ------
@@ -140,11 +150,18 @@ class VibroImpactSystem:
     left: Wall | None = None
     right: Wall | None = None
     forcing: Harmonic | None = None
+    external: OrnsteinUhlenbeck | None = None
 
     def __post_init__(self) -> None:
         where = "VibroImpactSystem"
         object.__setattr__(self, "forcing", FIELDS["forcing"].validate(
             "forcing", self.forcing, where))
+        object.__setattr__(self, "external", FIELDS["external"].validate(
+            "external", self.external, where))
+        if self.forcing is not None and self.external is not None:
+            raise _fail("external", "None (white noise) with harmonic forcing",
+                        self.external, "no solver treats forcing and coloured noise "
+                        "together yet")
         for name in ("a", "b", "c", "D1", "D2"):
             object.__setattr__(self, name, FIELDS[name].validate(name, getattr(self, name), where))
         left, right = Wall.of(self.left, "left"), Wall.of(self.right, "right")
@@ -223,7 +240,7 @@ class VibroImpactSystem:
         if "left" in overrides or "right" in overrides:      # walls instead of ±Δ
             for name in SHORTHAND:
                 fields.pop(name)
-        unknown = set(overrides) - set(fields) - {"left", "right", "forcing"}
+        unknown = set(overrides) - set(fields) - {"left", "right", "forcing", "external"}
         if unknown:
             raise ValueError(f"VibroImpactSystem.paper: unknown field(s) {sorted(unknown)}; "
                              f"allowed: {sorted(fields)}")
@@ -238,16 +255,18 @@ class VibroImpactSystem:
         dotted name: ``replace(**{"left.r": 0.5})``.
         """
         walls = {"left": self.left, "right": self.right}
-        forcing = [k for k in changes if k.startswith("forcing.")]
-        if forcing:
-            if self.forcing is None and "forcing" not in changes:
-                raise invalid("VibroImpactSystem.replace", forcing[0], "a change of the "
-                              "system's forcing", changes[forcing[0]], "it has no forcing")
-            base = Harmonic.of(changes.pop("forcing", None) or self.forcing)
-            table = base.to_dict()
-            for key in forcing:
-                table[key.split(".", 1)[1]] = changes.pop(key)
-            changes["forcing"] = Harmonic.of(table, "VibroImpactSystem.replace")
+        for table, kind in (("forcing", Harmonic), ("external", OrnsteinUhlenbeck)):
+            dotted = [k for k in changes if k.startswith(table + ".")]
+            if not dotted:
+                continue
+            if getattr(self, table) is None and table not in changes:
+                raise invalid("VibroImpactSystem.replace", dotted[0], f"a change of the "
+                              f"system's {table}", changes[dotted[0]], f"it has no {table}")
+            base = kind.of(changes.pop(table, None) or getattr(self, table))
+            entries = base.to_dict()
+            for key in dotted:
+                entries[key.split(".", 1)[1]] = changes.pop(key)
+            changes[table] = kind.of(entries, "VibroImpactSystem.replace")
         for key in [k for k in changes if "." in k]:
             side, attr = key.split(".", 1)
             if side not in walls or attr not in WALL_FIELDS:
@@ -280,10 +299,11 @@ class VibroImpactSystem:
         for side in ("left", "right"):
             if out[side] is not None:
                 out[side] = out[side].to_dict()
-        if out["forcing"] is not None:
-            out["forcing"] = out["forcing"].to_dict()
-        else:
-            del out["forcing"]              # (files of unforced systems as before)
+        for table in ("forcing", "external"):
+            if out[table] is not None:
+                out[table] = out[table].to_dict()
+            else:
+                del out[table]              # (files of white, unforced systems as before)
         return out
 
     @classmethod
@@ -382,7 +402,7 @@ class VibroImpactSystem:
             out.append("restoring")
         if self.c != 0:
             out.append("damping")
-        out.append("external_noise")
+        out.append("external_noise" if self.external is None else "coloured_noise")
         if self.D2 != 0:
             out.append("parametric_noise")
         out += [f"impact_{side}" for side, _ in self.walls[::-1]]
@@ -393,16 +413,27 @@ class VibroImpactSystem:
 
 #: Where a forced system is solved (the solvers that take ``forcing``).
 FORCED_SOLVERS = "fem.periodic, montecarlo.periodic and the transients of fem and montecarlo"
+#: Where a system with coloured external noise is solved.
+COLOURED_SOLVERS = ("fem.stationary, fem.transient, montecarlo.stationary or "
+                    "montecarlo.transient")
 
 
-def check_system(where: str, system: Any, *, forcing: bool = False) -> VibroImpactSystem:
+def check_system(where: str, system: Any, *, forcing: bool = False,
+                 coloured: bool = False) -> VibroImpactSystem:
     """``system`` if it is a :class:`VibroImpactSystem`, else a one-line error; a system
     with harmonic forcing too, unless the caller handles ``forcing`` (a forced system
-    has no stationary density and no time-invariant first passage)."""
+    has no stationary density and no time-invariant first passage), and one with
+    coloured external noise unless the caller handles ``coloured`` (its density lives
+    in (x, y, ζ))."""
     if not isinstance(system, VibroImpactSystem):
         raise invalid(where, "system", "a VibroImpactSystem", system)
     if system.forcing is not None and not forcing:
         raise InputError(f"{where}: does not handle harmonic forcing (the response is "
                          f"periodic, not stationary); use {FORCED_SOLVERS}", where=where,
                          name="forcing")
+    if system.external is not None and not coloured:
+        raise InputError(f"{where}: does not handle coloured external noise (external="
+                         f"OrnsteinUhlenbeck(tau={system.external.tau:g}): the state is "
+                         f"(x, y, ζ)); use {COLOURED_SOLVERS}", where=where,
+                         name="external")
     return system

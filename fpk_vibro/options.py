@@ -47,6 +47,9 @@ class Options:
     #: The modes whose solver handles harmonic forcing (the others refuse a forced
     #: system in one line: :func:`fpk_vibro.model.check_system`).
     FORCED_MODES: ClassVar[tuple[str, ...]] = ()
+    #: The modes whose solver handles coloured external noise (the others refuse it
+    #: in one line: :func:`fpk_vibro.model.check_system`).
+    COLOURED_MODES: ClassVar[tuple[str, ...]] = ()
 
     @classmethod
     def declared(cls) -> dict[str, Option]:
@@ -128,7 +131,8 @@ class Options:
         from .budget import enforce
         from .model import check_system
         where = f"{cls.WHERE}.{mode}"
-        check_system(where, system, forcing=mode in cls.FORCED_MODES)
+        check_system(where, system, forcing=mode in cls.FORCED_MODES,
+                     coloured=mode in cls.COLOURED_MODES)
         opts = cls.from_call(mode, values)
         opts.validate_for(system, mode, probe=probe)
         if initial is not None and hasattr(opts, "validate_initial"):

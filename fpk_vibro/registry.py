@@ -71,6 +71,7 @@ FEATURES = {
     "no damping": "no damping (c = 0)",
     "restitution laws": "restitution that depends on the impact speed (a law r(u))",
     "harmonic forcing": "harmonic forcing F cos(Ωt + φ0) (a periodic response)",
+    "coloured noise": "coloured external noise (Ornstein–Uhlenbeck, correlation time τ)",
 }
 
 
@@ -92,6 +93,8 @@ def features_of(system: VibroImpactSystem) -> tuple[str, ...]:
         out.append("restitution laws")
     if system.forcing is not None:
         out.append("harmonic forcing")
+    if system.external is not None:
+        out.append("coloured noise")
     return tuple(out)
 
 
@@ -274,19 +277,36 @@ provide("fem", _fem_reference)
 provide("fem-transient", _fem_transient_reference)
 provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(system, **kw))
 
+#: What a system with coloured noise gives (fem and montecarlo): the modes and the
+#: quantities of the (x, y) density; the impact-to-impact records need ζ at the impact.
+COLOURED_MODES = ("stationary", "transient")
+COLOURED_QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts")
+
+
 def _forced_modes(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
     """A forced system's response is periodic: no stationary density, no
-    time-invariant first passage (fem and montecarlo: periodic and transient)."""
+    time-invariant first passage (fem and montecarlo: periodic and transient); a
+    system with coloured noise is solved stationary and transient, for the
+    quantities of its (x, y) density."""
     if system.forcing is not None and mode in ("stationary", "first_passage"):
         return (f"a system with harmonic forcing has no {mode.replace('_', ' ')} answer "
                 "(its response is periodic); use the modes periodic or transient")
+    if system.external is not None:
+        if mode not in COLOURED_MODES:
+            return (f"does not solve {mode.replace('_', ' ')} problems of a system with "
+                    f"coloured noise; the modes {' and '.join(COLOURED_MODES)} do")
+        other = [q for q in quantities if q not in COLOURED_QUANTITIES]
+        if other:
+            return (f"does not give {other[0]!r} for a system with coloured noise (it "
+                    f"gives {', '.join(COLOURED_QUANTITIES)})")
     return None
 
 
 for _m in (
     Method("averaging", "stochastic averaging of the energy envelope (1-D in H)",
            _UNFORCED, QUANTITIES,
-           tuple(f for f in FEATURES if f not in ("several wells", "harmonic forcing")),
+           tuple(f for f in FEATURES
+                 if f not in ("several wells", "harmonic forcing", "coloured noise")),
            _averaging_solver, _averaging_options, safe_sets=SAFE_SETS,
            solution_kinds=("averaging", "averaging_grid"), study="n_panel ladder",
            benchmark="averaging"),
