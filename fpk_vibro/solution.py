@@ -233,8 +233,13 @@ class Solution(abc.ABC):
                           "None (a stationary density)", t, "a transient density: its "
                           "balance needs dE[H]/dt, which one time does not give")
         s, m = self.system, self.moments()
+        if s.external is not None:
+            zeta = self.coloured_moments()          # the work of ζ is E[ζ y], not D1
+            external = zeta["E_zeta_y"]
+        else:
+            zeta, external = {}, s.D1
         imp = self.impacts() if s.has_barrier else {}
-        noise = s.D1 + s.D2 * m["E_x2"]
+        noise = external + s.D2 * m["E_x2"]
         damping = s.c * m["E_y2"]
         impacts = sum(v["energy_rate"] for v in imp.values())
         out = {"noise": noise, "damping": damping, "impacts": impacts,
@@ -242,8 +247,25 @@ class Solution(abc.ABC):
         if hasattr(self, "moments_se"):
             se = self.moments_se()
             out["residual_se"] = (s.D2 * se["E_x2"] + s.c * se["E_y2"] + sum(
-                v.get("energy_rate_se", 0.0) for v in imp.values())) / noise
+                v.get("energy_rate_se", 0.0) for v in imp.values())
+                + zeta.get("E_zeta_y_se", 0.0)) / noise
         return out
+
+    def coloured_moments(self) -> dict[str, float]:
+        """With coloured external noise (:mod:`fpk_vibro.noise`): ``E_zeta2`` = E[ζ²]
+        and ``E_zeta_y`` = E[ζ y], the power the force ζ puts in (with ``*_se`` where
+        sampled).  Methods solving such systems override it.
+
+        Raises
+        ------
+        InputError
+            For a system with white external noise (ζ does not exist).
+        """
+        if self.system.external is None:
+            raise invalid(f"{type(self).__name__}.coloured_moments", "system.external",
+                          "OrnsteinUhlenbeck(tau=...)", None, "white external noise has no "
+                          "state ζ")
+        raise NotImplementedError(f"{type(self).__name__} does not give E[ζ y]")
 
     def mean_x(self) -> float:
         """E[x] = ∫ x p(x) dx: zero for walls at ±Δ, not for asymmetric walls.
