@@ -66,6 +66,10 @@ class Ensemble:
         (splitmix64 seeding, :func:`._cuda_rng.seed_py`, done on the GPU).
     paired : bool
         Also carry a path at 2h from the same state (:func:`paired_bias`).
+    zs : float64[n], optional
+        With coloured external noise: each path's starting force ζ (copied to the
+        GPU; the kernels advance it, :func:`._cuda_kernels._make_stationary`).  Not
+        with ``paired``.
 
     Each path also carries the time and wall of its last impact (from its start, so
     a gap after the burn-in reaches back into it, as on the CPU).
@@ -75,7 +79,7 @@ class Ensemble:
     chunk_path_steps = 1 << 35
 
     def __init__(self, system, xs: np.ndarray, ys: np.ndarray, seed: int,
-                 paired: bool = False) -> None:
+                 paired: bool = False, zs: np.ndarray | None = None) -> None:
         self.K = CK.kernels()
         nc = self.K.cuda
         self.n = int(xs.size)
@@ -99,6 +103,12 @@ class Ensemble:
             self.wlc = nc.to_device(np.zeros(self.n, dtype=np.int8))
         else:
             self.xc, self.yc, self.tlc, self.wlc = self.x, self.y, self.tl, self.wl
+        if (zs is not None) != (system.external is not None) or (zs is not None and paired):
+            raise ValueError("Ensemble: zs (the paths' ζ) is given exactly for a coloured "
+                             "system, and not with paired")
+        self.coloured = zs is not None
+        self.zt = nc.to_device(np.ascontiguousarray(zs, dtype=float) if self.coloured
+                               else np.zeros(1))
         self.t = 0.0
         self._maps: dict = {}
 
@@ -120,13 +130,13 @@ class Ensemble:
             if blk_b.size == 0:
                 continue
             kern[blk_b.size, tpb](*self._state, blk_b, blk_i, m, step0, sample_every,
-                                  self.t, *args, *tail)
+                                  self.t, *args, *tail, self.zt)
             self.K.fold[(nk + 127) // 128, 128](part, bstart, sums)
 
     def advance(self, xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp,
                 xext, hH, hx, hy, hj, threads=None, walls=None, speeds=None, law=None,
                 extra=None, last=None, energies=None, gaps=None, t0=0.0, periodic=None,
-                *, p2=None, out2=None) -> None:
+                zeta=None, *, p2=None, out2=None) -> None:
         """:func:`._kernel.advance` on the GPU: the same arguments and sums (``rng``,
         ``threads`` and ``law`` unused: the streams and the laws live on the GPU);
         ``xs``, ``ys`` receive the new states; ``starts`` None: equal batches.
@@ -145,7 +155,8 @@ class Ensemble:
         ``t0``: the time of the states on entry (with forcing, ``ip.forced``, step k
         of the call kicks with F cos(Ω (t0 + k h) + φ0), as on the CPU);
         ``periodic``: the CPU's phase-resolved sampling tables
-        (:func:`._cuda_periodic.advance`).
+        (:func:`._cuda_periodic.advance`); ``zeta``: with coloured noise, receives
+        the paths' ζ (the GPU keeps its own copy, started from the ensemble's ``zs``).
 
         Ctrl-C: the chunks finished (and one already queued) are added to the sums,
         ``xs``/``ys`` receive the states, and the KeyboardInterrupt propagates.
@@ -182,7 +193,8 @@ class Ensemble:
         part = nc.device_array((max(int(sg[0].size) for sg in segs) if segs else 1, ks))
         forced = bool(getattr(ip, "forced", 0))
         kern = self.K.stationary(self.paired, track, *host,
-                                 tuple(host2) if self.paired else (), forced=forced)
+                                 tuple(host2) if self.paired else (), forced=forced,
+                                 coloured=self.coloured)
         fo = (float(p.f_amp), float(p.f_omega), float(p.f_phase), float(t0))
         self._state = (self.x, self.y, self.tl, self.wl, self.s0, self.s1, self.xc, self.yc,
                        self.tlc, self.wlc)
@@ -220,6 +232,8 @@ class Ensemble:
                     a += d.copy_to_host()
             xs[:] = self.x.copy_to_host()
             ys[:] = self.y.copy_to_host()
+            if zeta is not None and self.coloured:
+                zeta[:] = self.zt.copy_to_host()
 
     def coarse_states(self) -> tuple[np.ndarray, np.ndarray]:
         """The states of the 2h paths (paired runs)."""

@@ -46,6 +46,7 @@ PH0, PHIW, PX0, PXIW, PY0, PYIW, PJX0, PJXIW, PJY0, PJYIW = (
     _F[k] for k in ("h0", "h_iw", "x0", "x_iw", "y0", "y_iw", "jx0", "jx_iw", "jy0", "jy_iw"))
 PFLO, PFHI, PUWL, PUWR = (_F[k] for k in ("f_lo", "f_hi", "u_iw_left", "u_iw_right"))
 PFA, PFO, PFP = (_F[k] for k in ("f_amp", "f_omega", "f_phase"))
+PZE, PZS, PZK = (_F[k] for k in ("z_e", "z_s", "z_k"))
 
 
 #: Histogram cells per block in shared memory at most (uint32 counts of one batch).
@@ -54,10 +55,10 @@ SHARED_CELLS = 2048
 TPB_MAX = 256
 #: Sums reduced per pass of the block reduction.
 RW = 8
-#: The per-thread sums of a path, in this order (:func:`sums_layout`): the 12 moment
-#: columns ``M_*``, the 8 wall sums (impacts, Σu, Σu², Σ loss; left then right) and
-#: the 10 gap sums (X_GL, X_TL, X_GR, X_TR, X_G0; left then right).
-NSUM = 30
+#: The per-thread sums of a path, in this order: the NM (14) moment columns ``M_*``,
+#: the 8 wall sums (impacts, Σu, Σu², Σ loss; left then right) and the 10 gap sums
+#: (X_GL, X_TL, X_GR, X_TR, X_G0; left then right).
+NSUM = NM + 18
 #: Per-batch maxima (atomic max: exact in any order): −min x, max x, largest impact
 #: speed, longest gap ending on the left, on the right wall.
 NEXT = 5
@@ -89,13 +90,14 @@ def _add1(h, k, w):
     cuda.atomic.add(h, k, w)
 
 
-def _msample(m, x, y, H, gd, oh, ox, oy, oj):
-    """The moment sums m (the ``M_*`` columns) with the state (x, y) added."""
+def _msample(m, x, y, H, gd, oh, ox, oy, oj, zt):
+    """The moment sums m (the ``M_*`` columns) with the state (x, y) added; ``zt``
+    the path's coloured force ζ (0 for white noise)."""
     x2 = x * x
     y2 = y * y
     return (m[0] + 1.0, m[1] + H, m[2] + x2, m[3] + y2, m[4] + x2 * x2, m[5] + y2 * y2,
             m[6] + (1.0 if H > gd else 0.0), m[7] + oh, m[8] + ox, m[9] + oy, m[10] + oj,
-            m[11] + x)
+            m[11] + x, m[12] + zt * zt, m[13] + zt * y)
 
 
 def _wadd(w, nl, nr, ul, ur, ql, qr, el, er):
@@ -136,10 +138,16 @@ def _fold_py(part, bstart, sums):
         sums[b, q] = s
 
 
-def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
+def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False,
+                     coloured=False):
     """The stationary kernel for one configuration (module docstring); ``forced``:
     the kicks add the harmonic force (:func:`._scalar_step.forcing_at`, step k of the
-    call at t0 + 2 hh (kf0 + k)), else −0.0 (the unforced step bit for bit)."""
+    call at t0 + 2 hh (kf0 + k)), else −0.0 (the unforced step bit for bit);
+    ``coloured``: the kicks add each path's κ ζ (``zts``; κ = ``z_k``), ζ_k in the
+    step's first half and ζ_{k+1} = e^{−h/τ} ζ_k + s ξ' in its second
+    (:mod:`._kernel`), ξ' a normal of the path's stream: with D2 > 0 the second of
+    the step's pair (the first drives the parametric noise), else one normal a step
+    as the white noise's; the samples add Σζ² and Σζy (:func:`_msample`)."""
     step = _step if wh else _step0
     forc = _forc
     normal2 = _normal2
@@ -154,7 +162,7 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
     ks = 2 * NSUM if paired else NSUM
     u32 = np.uint32
     f64 = np.float64
-    z12 = (0.0,) * 12
+    zm = (0.0,) * NM
     z8 = (0.0,) * 8
 
     def hist(sh, loc, b, H, x, y, pf, hH, hx, hy, hj):
@@ -209,7 +217,7 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
     def kern(xs, ys, tls, wls, rs0, rs1, xcs, ycs, tlcs, wlcs, blk_b, blk_i, n_steps,
              step0, sample_every, t0, pf, pf2, has_d2, maxk, kinds, par, tab_u, tab_r, iwa,
              part, ext, hH, hx, hy, hj, hu, he, hg, ext2, hH2, hx2, hy2, hj2, hu2, he2, hg2,
-             famp, fom, fph, tf, kf0):
+             famp, fom, fph, tf, kf0, zts):
         blk = cuda.blockIdx.x
         tid = cuda.threadIdx.x
         bd = cuda.blockDim.x
@@ -228,9 +236,9 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
             for c in range(tid, shn, bd):
                 sh[c] = u32(0)
             cuda.syncthreads()
-        m = z12
+        m = zm
         w = z8
-        m2 = z12
+        m2 = zm
         w2 = z8
         if i < blk_i[blk, 1]:
             a = pf[PA]
@@ -284,13 +292,29 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
             g0 = -0.0
             g1 = -0.0
             gp = -0.0
+            zt = 0.0
+            zx = 0.0
+            ze = pf[PZE]
+            zsd = pf[PZS]
+            kz = pf[PZK]
             if forced:
                 g1 = forc(famp, fom, fph, tf, hh, kf0)
+            if coloured:
+                zt = zts[i]
             for k in range(n_steps):
-                if k % 2 == 0:
+                if coloured and has_d2:
+                    z, zx, s0, s1 = normal2(s0, s1)
+                elif k % 2 == 0:
                     z, z2, s0, s1 = normal2(s0, s1)
                 else:
                     z = z2
+                if coloured:
+                    if not has_d2:
+                        zx = z
+                        z = 0.0
+                    g0 = kz * zt
+                    zt = ze * zt + zsd * zx
+                    g1 = kz * zt
                 if forced:
                     gp = g0
                     g0 = g1
@@ -319,14 +343,14 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
                     cnt = sample_every
                     H = energy(x, y, a, bcub)
                     oh, ox, oy, oj = hist(sh, shared, b, H, x, y, pf, hH, hx, hy, hj)
-                    m = msample(m, x, y, H, gd, oh, ox, oy, oj)
+                    m = msample(m, x, y, H, gd, oh, ox, oy, oj, zt)
                     xmin = min(xmin, x)
                     xmax = max(xmax, x)
                     if paired:
                         H = energy(xc, yc, a, bcub)
                         oh, ox, oy, oj = hist(sh, False, b, H, xc, yc, pf, hH2, hx2, hy2,
                                               hj2)
-                        m2 = msample(m2, xc, yc, H, gd, oh, ox, oy, oj)
+                        m2 = msample(m2, xc, yc, H, gd, oh, ox, oy, oj, 0.0)
                         xmin2 = min(xmin2, xc)
                         xmax2 = max(xmax2, xc)
             xs[i] = x
@@ -335,6 +359,8 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
             wls[i] = wl
             rs0[i] = s0
             rs1[i] = s1
+            if coloured:
+                zts[i] = zt
             maxima(ext, b, xmin, xmax, umax, acc)
             if paired:
                 xcs[i] = xc
@@ -375,9 +401,13 @@ def _make_stationary(paired, nbh, nbx, nby, njx, njy, wh, shared, forced=False):
     return cuda.jit(kern)
 
 
-def stationary(paired, track, hH, hx, hy, hj, hu, he, hg, hists2=(), forced=False):
+def stationary(paired, track, hH, hx, hy, hj, hu, he, hg, hists2=(), forced=False,
+               coloured=False):
     """The stationary kernel for these arrays' sizes (compiled once per configuration);
-    ``track``: the gaps between impacts are recorded; ``forced``: harmonic forcing."""
+    ``track``: the gaps between impacts are recorded; ``forced``: harmonic forcing;
+    ``coloured``: coloured external noise (not with ``paired``)."""
+    if paired and coloured:
+        raise ValueError("the paired kernel takes white external noise only")
     _base()
     nbh, nbx, nby = hH.shape[1], hx.shape[1], hy.shape[1]
     njx, njy = hj.shape[1], (hj.shape[2] if hj.shape[1] > 0 else 0)
@@ -390,7 +420,8 @@ def stationary(paired, track, hH, hx, hy, hj, hu, he, hg, hists2=(), forced=Fals
                              "the same sizes as the fine path's")
     tot = nbh + nbx + nby + njx * njy
     shared = 0 < tot <= SHARED_CELLS
-    key = (bool(paired), nbh, nbx, nby, njx, njy, bool(wh), shared, bool(forced))
+    key = (bool(paired), nbh, nbx, nby, njx, njy, bool(wh), shared, bool(forced),
+           bool(coloured))
     if key not in _STAT:
         _STAT[key] = _make_stationary(*key)
     return _STAT[key]

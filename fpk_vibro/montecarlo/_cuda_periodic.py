@@ -94,7 +94,7 @@ def _make(nbh, nbx, nby, njx, njy):
             oh, ox, oy, oj = hist(row, H, x, y, pf, hH, hx, hy, hj)
             cuda.atomic.max(xe, (row, 0), -x)
             cuda.atomic.max(xe, (row, 1), x)
-        m = msample((0.0,) * 12, x, y, H, pf[P.PGD], oh, ox, oy, oj)
+        m = msample((0.0,) * NM, x, y, H, pf[P.PGD], oh, ox, oy, oj, 0.0)
         for c in range(NM):
             scr[li, col + c] += m[c]
 

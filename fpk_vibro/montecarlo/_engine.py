@@ -28,7 +28,7 @@ TransientRun = TransientResult
 def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, imp, xext,
                 hist, n_paths, progress, label, done_frac=(0.0, 1.0), stop=None,
                 frac=None, threads=None, walls=None, law=None, extra=None, last=None,
-                ens=None, t0=0.0):
+                ens=None, t0=0.0, zeta=None):
     """Advance in chunks of ~CHUNK_PATH_STEPS path-steps; returns steps done.
 
     ``ens``: a :class:`._cuda_engine.Ensemble` (device "cuda") advances the paths
@@ -39,7 +39,8 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
     ``frac(done)`` overrides the completed fraction shown by the progress line;
     ``law``, ``extra``, ``last``: as :func:`._kernel.advance` takes them (``law`` is
     needed for a wall whose r depends on the impact speed); ``t0`` the time of the
-    states on entry (the phase of a harmonic forcing).
+    states on entry (the phase of a harmonic forcing); ``zeta`` the paths' coloured
+    noise ζ (None: white), updated in place.
     """
     per = S.CHUNK_PATH_STEPS if ens is None else ens.chunk_path_steps
     chunk = max(1, per // max(n_paths, 1))
@@ -51,12 +52,13 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
         if ens is None:
             K.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom, imp,
                       xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls, hist.hu,
-                      law, extra, last, hist.he, hist.hg, t0=t0 + done * 2.0 * p.hh)
+                      law, extra, last, hist.he, hist.hg, t0=t0 + done * 2.0 * p.hh,
+                      zeta=zeta)
         else:
             ens.advance(xs, ys, rng, starts, n, step0 + done, sample_every, p, ip, mom,
                         imp, xext, hist.hH, hist.hx, hist.hy, hist.hj, threads, walls,
                         hist.hu, law, extra, last, hist.he, hist.hg,
-                        t0=t0 + done * 2.0 * p.hh)
+                        t0=t0 + done * 2.0 * p.hh, zeta=zeta)
         done += n
         f0, f1 = done_frac
         g = done / n_steps if frac is None else frac(done)
@@ -66,19 +68,28 @@ def _run_chunks(xs, ys, rng, starts, n_steps, step0, sample_every, p, ip, mom, i
     return done
 
 
-def _ensemble(system, opts, mode, xs, ys, child):
+def _ensemble(system, opts, mode, xs, ys, child, zs=None):
     """(Ensemble or None, the device's name for ``info["device"]``): the option
     ``device`` resolved (:func:`._device.resolve`: "cuda" without a GPU is refused in
-    one line); on "cuda" the paths move to the GPU with a stream seeded from
-    ``child``."""
+    one line); on "cuda" the paths (and their ζ, ``zs``) move to the GPU with a
+    stream seeded from ``child``."""
     from . import _device
     where = f"montecarlo.{mode}"
     if _device.resolve(opts.device, where) == "cpu":
         return None, "cpu"
     from . import _cuda_engine
     from ._cuda_rng import seed_of
-    return (_cuda_engine.Ensemble(system, xs, ys, seed_of(child)),
+    return (_cuda_engine.Ensemble(system, xs, ys, seed_of(child), zs=zs),
             _device.describe()["gpu"])
+
+
+def _initial_zeta(system, gen, n_paths):
+    """The paths' starting ζ: the stationary law of the OU force, N(0, D1/τ),
+    independent of (x, y), drawn after them (None for white noise)."""
+    ou = system.external
+    if ou is None:
+        return None
+    return math.sqrt(ou.variance(system.D1)) * gen.standard_normal(n_paths)
 
 
 def _gap_range(extra: np.ndarray, t_burn: float) -> float:
@@ -104,6 +115,13 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     Parameters
     ----------
     system : VibroImpactSystem
+        With coloured external noise (``external=OrnsteinUhlenbeck(tau=τ)``,
+        :mod:`fpk_vibro.noise`) each path also carries its force ζ, started from
+        ζ's stationary law N(0, D1/τ) independently of (x, y) and advanced exactly
+        (:mod:`fpk_vibro.montecarlo`, §Coloured noise); the densities and moments are
+        of (x, y) (ζ marginalised), and :meth:`~MonteCarloSolution.coloured_moments`
+        gives E[ζ²] and E[ζ y], the power ζ puts in (the input of
+        :meth:`~MonteCarloSolution.power_balance`).
     n_paths : int, default 2048
         Independent paths, split into ``n_batches`` batches (one random stream
         each; standard errors from the spread between batches).
@@ -209,7 +227,8 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     starts = S.block_starts(n_paths, n_batches)
     xs = np.full(n_paths, S.initial_x(system))
     ys = math.sqrt(S.energy_scale(system)) * gen.standard_normal(n_paths)
-    ens, device = _ensemble(system, opts, "stationary", xs, ys, children[0])
+    zs = _initial_zeta(system, gen, n_paths)
+    ens, device = _ensemble(system, opts, "stationary", xs, ys, children[0], zs)
     p, ip = S.step_params(system, dt, max_impacts)
     law = S.wall_laws(system)
     mom = np.zeros((n_batches, K.NM))
@@ -227,7 +246,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
     try:
         _run_chunks(xs, ys, rng, starts, n_burn, 0, 0, p, ip, mom, imp, xext, none,
                     n_paths, prog, "burn-in", (0.0, 0.1), threads=threads, law=law,
-                    extra=extra, last=last, ens=ens)
+                    extra=extra, last=last, ens=ens, zeta=zs)
     except KeyboardInterrupt:
         prog.close("(interrupted during burn-in: nothing sampled)")
         raise
@@ -266,7 +285,7 @@ def stationary(system: VibroImpactSystem, *, n_paths: int = 2048, dt: float | No
         _run_chunks(xs, ys, rng, starts, n_samp, 0, sample_every, p, ip, mom, imp, xext,
                     hist, n_paths, prog, "sampling", (0.1, 1.0), stop=reached,
                     frac=fraction, threads=threads, walls=wimp, law=law, extra=extra,
-                    last=last, ens=ens)
+                    last=last, ens=ens, zeta=zs)
     except KeyboardInterrupt:
         partial = True
         interruption_note("\n[montecarlo] interrupted: returning the samples taken so far "
@@ -302,11 +321,14 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     Parameters
     ----------
     system : VibroImpactSystem
+        With coloured external noise, as in :func:`stationary`.
     initial : dict or callable
         At t = 0 (a forced system's phase there is φ0):
         ``{"mean": (x0, y0), "std": (sx, sy)}`` (x truncated to the strip, std 0 =
         exactly that value) or ``initial(n, rng)`` returning samples; see
-        :mod:`fpk_vibro.initial`.
+        :mod:`fpk_vibro.initial`.  It describes (x, y) only: with coloured noise each
+        path's ζ starts from its stationary law N(0, D1/τ), independent of (x, y)
+        (the force has been acting since long before t = 0).
     times : sequence of float
         Increasing times ≥ 0 (0 gives the initial ensemble).  Each interval is
         split into equal steps of at most ``dt``, so every time is hit exactly.
@@ -349,7 +371,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
     starts = S.block_starts(n_paths, n_batches)
     xs, ys = init.sample(n_paths, gen)
     xs, ys = np.ascontiguousarray(xs, dtype=float), np.ascontiguousarray(ys, dtype=float)
-    ens, device = _ensemble(system, opts, "transient", xs, ys, children[0])
+    zs = _initial_zeta(system, gen, n_paths)
+    ens, device = _ensemble(system, opts, "transient", xs, ys, children[0], zs)
     none = S.Histograms(system, (), bins, n_batches, 1.0)
     law = S.wall_laws(system)
     gmin = S.potential_min(system)
@@ -372,14 +395,14 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
             frac = (t_now / tarr[-1], t / tarr[-1]) if tarr[-1] > 0 else (0.0, 1.0)
             _run_chunks(xs, ys, rng, starts, n, 0, 0, p, ip, mom, imp, xext, none,
                         n_paths, prog, f"t={t:g}", frac, threads=threads, walls=wimp,
-                        law=law, extra=extra, ens=ens, t0=t_now)
+                        law=law, extra=extra, ens=ens, t0=t_now, zeta=zs)
             t_now = float(t)
             H = system.energy(xs, ys)
             H_max = float(H.max())
             H_max = H_max + max(1e-9 * abs(H_max - gmin), 1e-12)
             hist = S.Histograms(system, quantities, bins, n_batches, H_max)
             p = hist.with_bins(p)
-            K.snapshot(xs, ys, starts, p, mom, xext, hist.hH, hist.hx, hist.hy, hist.hj)
+            K.snapshot(xs, ys, starts, p, mom, xext, hist.hH, hist.hx, hist.hy, hist.hj, zs)
             _check_finite("transient", mom, xs, ys, h, 0)
             meta = dict(n_paths=n_paths, n_batches=n_batches, t_burn=0.0, t_sample=0.0,
                         time=t_now, seed_entropy=ss.entropy, partial=False,

@@ -3,8 +3,8 @@
 Each block of paths (one random stream, as in :mod:`._kernel`) keeps up to CHUNK
 paths in flight in slots 0..n-1.  A step advances the n slots with the stationary
 kernel's own step: its normals (:func:`._rng._normal`), its vectorised sweep
-(:func:`._kernel._smooth_sweep`) and, for the paths the sweep flags, its exact
-impact handling (:func:`._flight._flight`, :func:`._kernel._step_walls`).  Then
+(:func:`._sweep._smooth_sweep`) and, for the paths the sweep flags, its exact
+impact handling (:func:`._flight._flight`, :func:`._sweep._step_walls`).  Then
 :func:`_monitor` compares the new states with H_c and flags
 
 - the paths with H ≥ H_c: exited in this step (time by linear interpolation of H

@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .._checks import InputError
 from . import _setup as S
 from ._kernel import CHUNK, _step_full
 from ._rng import FASTMATH, _normal
@@ -264,6 +265,11 @@ def stationary_pairs(sol, device: str = "cpu"):
         "dt/2".
     """
     system, dt = sol.system, float(sol.dt)
+    if system.external is not None:
+        raise InputError("MonteCarloSolution.error_estimate: paired=True is for white "
+                         "external noise (the twins share the noise of y, which coloured "
+                         "noise moves to ζ); use error_estimate() (its bias run at 2 dt)",
+                         where="MonteCarloSolution.error_estimate", name="paired")
     nb, n_paths = int(sol.n_batches), int(sol.n_paths)
     every = max(1, int(sol.sample_every))
     inter = "inter_impact" in sol.quantities

@@ -18,7 +18,7 @@ from numba import njit
 # of a*b + c*d to fuse, and chose differently in a function's own compiled code and in
 # the copy linked into its caller; which of the two a process runs depends on what it
 # compiled or loaded from the cache first (a cold and a warm cache gave different
-# bits).  The kernels' fused multiply-adds are written out instead (``_kernel._fma``).
+# bits).  The kernels' fused multiply-adds are written out instead (``_sweep._fma``).
 FASTMATH = False
 
 _U11 = np.uint64(11)

@@ -10,9 +10,10 @@ from numba import njit
 
 from ._rng import FASTMATH
 
-# moment accumulator columns
-M_N, M_H, M_X2, M_Y2, M_X4, M_Y4, M_PIMP, M_OVH, M_OVX, M_OVY, M_OVJ, M_X = range(12)
-NM = 12
+# moment accumulator columns (M_Z2, M_ZY: Σζ², Σζy of coloured external noise, 0 else)
+(M_N, M_H, M_X2, M_Y2, M_X4, M_Y4, M_PIMP, M_OVH, M_OVX, M_OVY, M_OVJ, M_X, M_Z2,
+ M_ZY) = range(14)
+NM = 14
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
@@ -31,12 +32,14 @@ def _hist_index(v, v0, inv_w, nb):
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
+def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj, zv=None):
     """Add the states x = xv[:n], y = vv[:n] + kick F(x) (``kick`` = h/2 for the
     kick-merged state of :func:`_smooth_sweep`, 0 for plain states) as samples of
     block b: the requested
     histograms, the moment sums (``mom[b]``, overflow counts and Σx included) and
-    the range of x (``xext[b]``).
+    the range of x (``xext[b]``); ``zv``: None, or the paths' coloured noise ζ
+    (:mod:`fpk_vibro.noise`; ``vv`` then holds y − kick F(x)), whose Σζ² and Σζy go
+    to ``mom[b, M_Z2]`` and ``mom[b, M_ZY]``.
 
     Called once per sweep, not per path, and written out without array-taking
     helpers: an inlined helper receiving arrays costs numba a reference-count
@@ -63,6 +66,8 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
     oj = 0.0
     xmin = xext[b, 0]
     xmax = xext[b, 1]
+    cz2 = 0.0
+    czy = 0.0
     for j in range(n):
         x = xv[j]
         x2 = x * x
@@ -103,6 +108,10 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
         cx += x
         xmin = min(xmin, x)
         xmax = max(xmax, x)
+        if zv is not None:
+            zt = zv[j]
+            cz2 += zt * zt
+            czy += zt * y
     mom[b, M_N] += n
     mom[b, M_H] += cH
     mom[b, M_X2] += cx2
@@ -115,16 +124,23 @@ def _sample(xv, vv, n, kick, p, b, mom, xext, hH, hx, hy, hj):
     mom[b, M_OVY] += oy
     mom[b, M_OVJ] += oj
     mom[b, M_X] += cx
+    if zv is not None:
+        mom[b, M_Z2] += cz2
+        mom[b, M_ZY] += czy
     xext[b, 0] = xmin
     xext[b, 1] = xmax
 
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def snapshot(xs, ys, starts, p, mom, xext, hH, hx, hy, hj):
+def snapshot(xs, ys, starts, p, mom, xext, hH, hx, hy, hj, zs=None):
     """Accumulate the current states of all paths once (transient densities;
-    cheap, so serial)."""
+    cheap, so serial); ``zs``: None, or the paths' coloured noise ζ."""
     for b in range(starts.shape[0] - 1):
         i0 = starts[b]
         i1 = starts[b + 1]
-        _sample(xs[i0:i1], ys[i0:i1], i1 - i0, 0.0, p, b, mom, xext, hH, hx, hy, hj)
+        if zs is None:
+            _sample(xs[i0:i1], ys[i0:i1], i1 - i0, 0.0, p, b, mom, xext, hH, hx, hy, hj)
+        else:
+            _sample(xs[i0:i1], ys[i0:i1], i1 - i0, 0.0, p, b, mom, xext, hH, hx, hy, hj,
+                    zs[i0:i1])

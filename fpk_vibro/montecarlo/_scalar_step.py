@@ -6,7 +6,7 @@ The functions below are plain Python; :func:`build` compiles them for one target
 The only target-specific pieces are passed in: ``jit`` and ``add``, how a histogram
 count is added (``h[i, k] += w`` on the CPU, an atomic add on a GPU).
 
-The step is the engine's (:mod:`._kernel`)::
+The step is the engine's (:mod:`._kernel`; with coloured noise the kicks add κ ζ)::
 
     B  y += (h/2) F(x)
     A  x += (h/2) y      free flight, impacts at x = lo / hi located exactly
@@ -177,11 +177,12 @@ def build(jit, add2, add1, counting=True):
     def step(x, y, f, z, hh, ec, sd0, d1s2, d2s2, a, bcub, lo, hi, flo, fhi, kinds, par,
              tab_u, tab_r, has_d2, maxk, t0, tlast, wlast, rec, g0, g1):
         """One step from time t0; f = F(x) on entry and on return (the restoring force
-        alone).  ``g0``, ``g1``: the harmonic force at the step's start and end (as the
-        CPU engine's :func:`._kernel._step_core`: g0 in the opening kick and the first
-        flight's wall force, g1 in the second flight's and the closing kick); −0.0
-        where there is none (x + (−0.0) is x bit for bit, so the unforced step is
-        unchanged and a compiler drops the additions).  Returns (x, y, f, tlast,
+        alone).  ``g0``, ``g1``: the force added at the step's start and end, harmonic
+        (F cos(Ω t + φ0)) or coloured (κ ζ_k, κ ζ_{k+1}: ζ advanced by the caller,
+        :mod:`._kernel`), as the CPU engine's :func:`._sweep._step_core` (g0 in the
+        opening kick and the first flight's wall force, g1 in the second flight's and
+        the closing kick); −0.0 where there is none (x + (−0.0) is x bit for bit, so
+        the unforced step is unchanged and a compiler drops the additions).  Returns (x, y, f, tlast,
         wlast, nl, nr, Σu l, Σu r, Σu² l, Σu² r, loss l, loss r, largest u, x after
         the first flight, y after the O step)."""
         y += hh * (f + g0)

@@ -9,8 +9,9 @@ import numpy as np
 from ..model import VibroImpactSystem
 from ._flight import LEFT, NX, RIGHT, W_N, W_Q, W_U, X_E, X_G0, X_GL, X_GR, X_TL, X_TR
 from ._histograms import Histograms
+from ._params import kick_gain
 from ._sampling import (M_H, M_N, M_OVH, M_OVJ, M_OVX, M_OVY, M_PIMP, M_X, M_X2, M_X4,
-                        M_Y2, M_Y4)
+                        M_Y2, M_Y4, M_Z2, M_ZY)
 from .solution import MonteCarloSolution
 
 SCHEME = "BAOAB splitting, impacts located exactly in the free-flight sub-steps"
@@ -182,6 +183,13 @@ def _reduce(system: VibroImpactSystem, hist: Histograms, mom: np.ndarray,
                                ("joint", M_OVJ)) if q in meta["quantities"]} | overflow_u,
         x_seen=[float(xext[:, 0].min()), float(xext[:, 1].max())],
         scheme=SCHEME, dt=float(dt))
+    if system.external is not None:
+        # E[ζ²], and E[ζ y] (the power the coloured force puts in) as κ E[ζ_k y_k]: the
+        # force the kicks apply is κ ζ (:func:`._params.kick_gain`)
+        est, se = _ratio(mom[:, [M_Z2, M_ZY]], n_b)
+        kz = kick_gain(dt, system.external.tau)
+        meta["coloured"] = {"E_zeta2": float(est[0]), "E_zeta2_se": float(se[0]),
+                            "E_zeta_y": float(kz * est[1]), "E_zeta_y_se": float(kz * se[1])}
     if gaps is not None:
         if "overflow" in gaps:
             meta["overflow"]["inter_impact"] = gaps.pop("overflow")

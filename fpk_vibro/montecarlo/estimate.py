@@ -1,16 +1,21 @@
 """The error estimate of a Monte Carlo answer: statistics and time-step bias together.
 
 ``MonteCarloSolution.error_estimate()`` gives, for E[H], E[x²], E[y²] and P_impact
-(relative; P_impact absolute below 1e-3), and for the mean time between impacts
-(``mean_inter_impact_time``, where the run kept "inter_impact") and the mean energy
-one impact removes at each inelastic wall (``mean_impact_energy_left``/``_right``),
-relative::
+(relative; P_impact absolute below 1e-3), for the mean time between impacts
+(``mean_inter_impact_time``, where the run kept "inter_impact"), the mean energy
+one impact removes at each inelastic wall (``mean_impact_energy_left``/``_right``)
+and, with coloured external noise, the power E[ζ y] it puts in (``E_zeta_y``,
+relative to the larger of |E[ζ y]| and 1e-3 sqrt(E[ζ²] E[y²]): a transient starts
+from E[ζ y] = 0), relative::
 
     estimate = 2 SE + |bias| + 2 SE(bias)
 
 The standard error SE comes from the spread between independent batches of paths.
 The time-step bias of the scheme is O(h²) (:mod:`fpk_vibro.montecarlo`), so a
-second run at 2 dt with the same paths, times, burn-in and seed family gives
+second run at 2 dt with the same paths, times, burn-in and seed family (and, with
+coloured noise, the same τ: the scheme's bias is O(h²) uniformly in h/τ, its kicks'
+gain κ(h/τ) making their zero-frequency intensity exact, :func:`._params.kick_gain`)
+gives
 bias(dt) ≈ (m(2 dt) − m(dt)) / 3, with its own standard error
 sqrt(SE² + SE₂²) / 3 (taken as independent samples; where the two runs share their
 start, as a transient's do, this overstates it).  Where 2 dt is refused (beyond a
@@ -259,6 +264,25 @@ def impact_figures(sol) -> dict[str, tuple[float, float]]:
     return out
 
 
+def coloured_figures(sol) -> dict[str, tuple[float, float]]:
+    """With coloured external noise: ``E_zeta_y`` (value, SE), the power ζ puts in
+    (:meth:`~fpk_vibro.montecarlo.MonteCarloSolution.coloured_moments`); else none."""
+    if sol.system.external is None or "coloured" not in sol._meta:
+        return {}
+    c = sol.coloured_moments()
+    return {"E_zeta_y": (c["E_zeta_y"], c["E_zeta_y_se"])}
+
+
+def _scales(sol, m: dict[str, float], keys: list[str]) -> dict[str, float]:
+    """What each figure's error is relative to (module docstring)."""
+    out = {k: _scale(k, m[k]) for k in keys}
+    if "E_zeta_y" in out:
+        c = sol.coloured_moments()
+        out["E_zeta_y"] = max(abs(m["E_zeta_y"]),
+                              1e-3 * math.sqrt(max(c["E_zeta2"] * m["E_y2"], 0.0)), 1e-300)
+    return out
+
+
 def error_estimate(sol, paired: bool = False) -> dict[str, Any]:
     """The estimate of the module docstring for a :class:`MonteCarloSolution`;
     ``paired`` (stationary): the bias from the paired run of :mod:`._paired` (the
@@ -312,8 +336,8 @@ def error_estimate(sol, paired: bool = False) -> dict[str, Any]:
                 assumes += "; one second periodic run for all phases and the average"
     told = not math.isnan(factor)
     m2, se2 = (other.moments(), other.moments_se()) if other is not None else (m, se)
-    figs = impact_figures(sol)
-    figs2 = impact_figures(other) if other is not None else figs
+    figs = impact_figures(sol) | coloured_figures(sol)
+    figs2 = (impact_figures(other) | coloured_figures(other)) if other is not None else figs
     for k, (v, e) in figs.items():           # judged like the moments
         if k in figs2 and (paired is None or k in paired):
             keys.append(k)
@@ -323,11 +347,12 @@ def error_estimate(sol, paired: bool = False) -> dict[str, Any]:
         paired = {k: (m[k] - m2[k], math.sqrt(se[k] ** 2 + se2[k] ** 2)) for k in keys}
     out: dict[str, Any] = {}
     bias: dict[str, float] = {}
+    scale = _scales(sol, m, keys)
     for k in keys:
         d, d_se = paired.get(k, (0.0, 0.0))
         b = factor * d if told else 0.0
         b_se = abs(factor) * d_se if told else 0.0
-        bias[k] = b / _scale(k, m[k])
-        out[k] = (2.0 * se[k] + abs(b) + 2.0 * b_se) / _scale(k, m[k])
+        bias[k] = b / scale[k]
+        out[k] = (2.0 * se[k] + abs(b) + 2.0 * b_se) / scale[k]
     out.update(bias=bias if told else math.nan, assumes=assumes, seconds=seconds)
     return out

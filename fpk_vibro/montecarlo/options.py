@@ -49,10 +49,12 @@ COARSE = 8.0
 class Options(_Options):
     """Numerical options of :func:`~fpk_vibro.montecarlo.stationary`,
     :func:`~fpk_vibro.montecarlo.transient` and
-    :func:`~fpk_vibro.montecarlo.first_passage`."""
+    :func:`~fpk_vibro.montecarlo.first_passage` (and ``periodic``); coloured external
+    noise is handled by ``stationary`` and ``transient`` (``COLOURED_MODES``)."""
 
     WHERE = "montecarlo"
     FORCED_MODES = ("transient", "periodic")
+    COLOURED_MODES = ("stationary", "transient")
 
     n_paths: int = option(PerMode(2048, 4096, 4096), "independent paths", "int", lo=2,
                           hi=10 ** 9, reduced=512, modes=ALL)
@@ -328,4 +330,7 @@ def _step_weight(system: VibroImpactSystem, dt: float, sample_every: int) -> flo
     w = 1.0 + 10.0 * max(0.0, min(f, 1.0) - 0.03) + 2.0 * max(0.0, f - 1.0)
     if sample_every > 0:
         w += max(0.0, 1.0 / sample_every - 1.0 / 30.0)
+    if getattr(system, "external", None) is not None:
+        # coloured noise: the OU step of ζ, and with D2 > 0 a second normal a step
+        w += 0.6 if system.D2 > 0 else 0.1
     return w

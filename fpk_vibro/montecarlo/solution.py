@@ -28,6 +28,8 @@ _WALL_KEYS = ("count", "rate", "rate_se", "mean_speed", "mean_speed_se", "mean_s
 #: Per-wall keys of newer results (absent from files written before them).
 _WALL_KEYS_NEW = ("mean_energy", "mean_energy_se")
 _GAP_KEYS = ("count", "mean", "mean_se", "unseen", "pairs")
+#: The moments of a coloured system's force ζ (:meth:`MonteCarloSolution.coloured_moments`).
+_COLOURED_KEYS = ("E_zeta2", "E_zeta2_se", "E_zeta_y", "E_zeta_y_se")
 _PAIR_KEYS = ("count", "fraction", "fraction_se", "mean", "mean_se")
 _META_KEYS = ("dt", "n_paths", "n_batches", "t_sample", "t_burn", "time", "seed_entropy",
               "partial", "impact_rate", "impact_rate_se", "n_samples", "sample_every",
@@ -341,6 +343,22 @@ class MonteCarloSolution(Solution):
         # a copy sent elsewhere keeps an estimate already made, or gives 2 SE only
         return {k: v for k, v in self.__dict__.items() if k != "_second_run"}
 
+    def coloured_moments(self) -> dict[str, float]:
+        """With coloured external noise ζ (:mod:`fpk_vibro.noise`): ``E_zeta2`` = E[ζ²]
+        (D1/τ exactly: ζ starts from and keeps its stationary law), ``E_zeta_y`` =
+        E[ζ y], the power ζ puts in (the input of :meth:`power_balance`), and their
+        standard errors ``E_zeta2_se``, ``E_zeta_y_se`` (between batches); sampled with
+        the moments (stationary: over the sampled time; transient: at ``time``).
+
+        Raises
+        ------
+        InputError
+            For a system with white external noise (ζ does not exist).
+        """
+        if self.system.external is None or "coloured" not in self._meta:
+            return super().coloured_moments()
+        return dict(self._meta["coloured"])
+
     def mean_x(self) -> float:
         """E[x], the average of the sampled x (not of the histogram); from the
         histogram by quadrature for files that predate it."""
@@ -412,6 +430,8 @@ class MonteCarloSolution(Solution):
         "mean_x": Rule.number(nan=True).optional(),
         "mean_x_se": Rule.number(0.0, nan=True).optional(),
         "device": Rule.TEXT.optional(),
+        "coloured": Rule.mapping(Rule.number(nan=True), needs=_COLOURED_KEYS,
+                                 keys=_COLOURED_KEYS).optional(),
         # a phase of montecarlo.periodic ("phase", its phase and bin) or its period
         # average ("average")
         "periodic": Rule.choice("phase", "average").optional(),
