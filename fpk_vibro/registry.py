@@ -277,29 +277,38 @@ provide("fem", _fem_reference)
 provide("fem-transient", _fem_transient_reference)
 provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(system, **kw))
 
-#: What a system with coloured noise gives (fem and montecarlo): the modes and the
-#: quantities of the (x, y) density; the impact-to-impact records need ζ at the impact.
-COLOURED_MODES = ("stationary", "transient")
-COLOURED_QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts")
+#: What a system with coloured noise gives, per method: the modes, and the quantities
+#: (fem: those of the ζ-marginal; the impact-to-impact records need ζ at the impact).
+COLOURED = {"fem": (("stationary",), ("energy", "x", "y", "joint", "moments", "impacts")),
+            "montecarlo": (("stationary", "transient"),
+                           ("energy", "x", "y", "joint", "moments", "impacts",
+                            "inter_impact", "impact_energy"))}
 
 
-def _forced_modes(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
+def _forced_modes(system: VibroImpactSystem, mode: str, quantities: tuple,
+                  method: str = "fem") -> str | None:
     """A forced system's response is periodic: no stationary density, no
     time-invariant first passage (fem and montecarlo: periodic and transient); a
-    system with coloured noise is solved stationary and transient, for the
-    quantities of its (x, y) density."""
+    system with coloured noise is solved in the modes and for the quantities of
+    :data:`COLOURED`."""
     if system.forcing is not None and mode in ("stationary", "first_passage"):
         return (f"a system with harmonic forcing has no {mode.replace('_', ' ')} answer "
                 "(its response is periodic); use the modes periodic or transient")
     if system.external is not None:
-        if mode not in COLOURED_MODES:
+        modes, given = COLOURED[method]
+        if mode not in modes:
+            also = [m for m, (ms, _) in COLOURED.items() if mode in ms and m != method]
             return (f"does not solve {mode.replace('_', ' ')} problems of a system with "
-                    f"coloured noise; the modes {' and '.join(COLOURED_MODES)} do")
-        other = [q for q in quantities if q not in COLOURED_QUANTITIES]
+                    f"coloured noise" + (f"; {', '.join(also)} does" if also else ""))
+        other = [q for q in quantities if q not in given]
         if other:
             return (f"does not give {other[0]!r} for a system with coloured noise (it "
-                    f"gives {', '.join(COLOURED_QUANTITIES)})")
+                    f"gives {', '.join(given)})")
     return None
+
+
+def _montecarlo_modes(system: VibroImpactSystem, mode: str, quantities: tuple) -> str | None:
+    return _forced_modes(system, mode, quantities, "montecarlo")
 
 
 for _m in (
@@ -316,7 +325,7 @@ for _m in (
            study="degree and nx ladder", benchmark="fem"),
     Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts",
            MODES, QUANTITIES, tuple(FEATURES), _montecarlo_solver, _montecarlo_options,
-           sampled=True, safe_sets=SAFE_SETS, check=_forced_modes,
+           sampled=True, safe_sets=SAFE_SETS, check=_montecarlo_modes,
            solution_kinds=("montecarlo",), study="target standard error ladder",
            benchmark="montecarlo"),
     Method("exact", "the Gibbs density exp(−(c/D1) H)/Z (r = 1, D2 = 0)", ("stationary",),

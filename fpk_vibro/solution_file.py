@@ -38,7 +38,7 @@ FORMAT_VERSION = 1
 
 #: Where the class of each stored ``kind`` lives (imported on demand by ``load``).
 KIND_MODULES = {"averaging": "fpk_vibro.averaging", "averaging_grid": "fpk_vibro.averaging",
-                "exact": "fpk_vibro.exact", "fem": "fpk_vibro.fem",
+                "exact": "fpk_vibro.exact", "fem": "fpk_vibro.fem", "fem_coloured": "fpk_vibro.fem.coloured",
                 "montecarlo": "fpk_vibro.montecarlo"}
 #: Members every file holds besides the class's arrays ("package": the writer's version).
 RESERVED = ("format", "version", "kind", "system", "meta", "package")

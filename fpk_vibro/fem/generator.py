@@ -34,7 +34,7 @@ from .mesh import Domain, StripEnd, ends_at_wall, wall_restitutions
 
 __all__ = ["assemble", "assemble_tensor", "TensorOperator", "mesh_domain",
            "assemble_tensor_bases", "tensor_index", "tensor_to_basis", "kron_sum",
-           "quadrature_order", "element_for"]
+           "quadrature_order", "element_for", "tensor_terms"]
 
 
 def quadrature_order(degree: int) -> int:
@@ -184,6 +184,19 @@ def assemble_tensor(system: VibroImpactSystem, xnodes: np.ndarray, ynodes: np.nd
         mesh = skfem.MeshQuad.init_tensor(xs[[0, -1]], np.array([ys[0], 0.0, ys[-1]]))
         dom = mesh_domain(system, mesh)
     bx, by = assemble_tensor_bases(xnodes, ynodes, degree)
+    terms, (Mx, My) = tensor_terms(system, bx, by, dom, degree)
+    L = kron_sum(terms)
+    unit = np.kron(np.asarray(Mx.sum(axis=0)).ravel(), np.asarray(My.sum(axis=0)).ravel())
+    return TensorOperator(L, unit, bx, by, dom, (Mx, My))
+
+
+def tensor_terms(system: VibroImpactSystem, bx: skfem.CellBasis, by: skfem.CellBasis,
+                 dom: Domain, degree: int, *, external: bool = True
+                 ) -> tuple[list, tuple[sp.csr_matrix, sp.csr_matrix]]:
+    """The Kronecker terms (X_t, Y_t) of :func:`assemble_tensor`'s L, the walls
+    included, and the 1-D masses (Mx, My); ``external=False`` leaves out the white
+    external diffusion D1 (the coloured-noise operator puts ζ there instead,
+    :mod:`fpk_vibro.fem.coloured_operator`)."""
     s = system
 
     def m1(b, *coef):
@@ -193,24 +206,21 @@ def assemble_tensor(system: VibroImpactSystem, xnodes: np.ndarray, ynodes: np.nd
         return skfem.asm(forms.convection_1d, b, coef=tuple(coef))
 
     Mx, My = m1(bx, 1.0), m1(by, 1.0)
-    Sy = skfem.asm(forms.stiffness_1d, by)
     terms = [(c1(bx, 1.0), m1(by, 0.0, 1.0))]                    # y p ∂q/∂x
     if s.c != 0:
         terms.append((-s.c * Mx, c1(by, 0.0, 1.0)))              # −c y p ∂q/∂y
     if s.a != 0 or s.b != 0:
         terms.append((-m1(bx, 0.0, s.a, 0.0, s.b), c1(by, 1.0)))  # −(ax+bx³) p ∂q/∂y
-    D = m1(bx, s.D1, 0.0, s.D2) if s.D2 != 0 else s.D1 * Mx
-    terms.append((-D, Sy))                                        # −D(x) p_y q_y
-    L = kron_sum(terms)
+    D1 = s.D1 if external else 0.0
+    if D1 != 0 or s.D2 != 0:
+        D = m1(bx, D1, 0.0, s.D2) if s.D2 != 0 else D1 * Mx
+        terms.append((-D, skfem.asm(forms.stiffness_1d, by)))    # −D(x) p_y q_y
     xd = bx.doflocs[0]
-    walls = []
     for wall in dom.walls:
         iw = int(np.argmin(np.abs(xd - wall.x)))
         E = sp.csr_matrix(([1.0], ([iw], [iw])), shape=(bx.N, bx.N))
-        walls.append(sp.kron(E, wall_matrix_1d(by, wall, dom.y_max, 2 * degree + 1)))
-    L = L - sum(walls[1:], walls[0])
-    unit = np.kron(np.asarray(Mx.sum(axis=0)).ravel(), np.asarray(My.sum(axis=0)).ravel())
-    return TensorOperator(L.tocsr(), unit, bx, by, dom, (Mx, My))
+        terms.append((-E, wall_matrix_1d(by, wall, dom.y_max, 2 * degree + 1)))
+    return terms, (Mx, My)
 
 
 def assemble_tensor_bases(xnodes: np.ndarray, ynodes: np.ndarray, degree: int

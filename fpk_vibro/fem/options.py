@@ -102,6 +102,9 @@ class Options(_Options):
     #: fem.periodic solves for a forced system's periodic state and fem.transient
     #: marches one (its forcing explicit in IMEX-BDF2 steps).
     FORCED_MODES = ("transient", "periodic")
+    #: fem.stationary solves a system with coloured noise in (x, y, ζ)
+    #: (:mod:`fpk_vibro.fem.coloured`).
+    COLOURED_MODES = ("stationary",)
 
     mesh: Any = option(None, "a mesh of the strip (walls at its x-extremes, symmetric in y, "
                        "y = 0 a mesh line); in a scene a file relative to it", "custom",
@@ -114,6 +117,9 @@ class Options(_Options):
     ny: int | None = option(None, "cells across y (even: y = 0 is a mesh line)", "int",
                             lo=2, hi=10 ** 6, even=True, reduced=32, modes=ALLP,
                             auto="h_y ≈ 1.5 h_x, at most 4 nx (first passage: 2 nx)")
+    nz: int | None = option(None, "cells across ζ (coloured external noise only: the 3-D "
+                            "solve, fpk_vibro.fem.coloured)", "int", lo=2, hi=4096, even=True,
+                            reduced=8, modes=S, auto="12")
     y_max: float | None = option(None, "velocity truncation |y| < y_max", "float", lo=0.0,
                                  lo_open=True, unit="m/s", modes=DENSP,
                                  auto="the energy-tail rule of fpk_vibro.scales (mass "

@@ -14,7 +14,8 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
                ny: int | None = None, y_max: float | None = None, degree: int = 1,
                solver: str = "auto", element: str = "quad", grading: float = 0.0,
                wall_grading: float | None = None, positivity: bool | str = "auto",
-               assembly: str = "auto", rtol: float | None = None) -> FEMSolution:
+               assembly: str = "auto", rtol: float | None = None, nz: int | None = None,
+               progress: bool | None = None) -> FEMSolution:
     """Stationary density of the 2-D FPK with impact coupling.
 
     Solves L p = 0, ∫ p = 1 where L is the conservative Galerkin generator
@@ -96,9 +97,19 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         otherwise no adaptation, and ``sol.error_estimate()`` is still available
         (one richer solve, on first call).
 
+    nz : int, optional
+        Coloured external noise only (``system.external``): cells in ζ.
+    progress : bool, optional
+        Coloured external noise only: progress bars of the 3-D solve.
+
     Returns
     -------
     FEMSolution
+        With coloured external noise a
+        :class:`~fpk_vibro.fem.coloured_solution.ColouredFEMSolution`: the density in
+        (x, y, ζ) on tensor hexahedra (:mod:`fpk_vibro.fem.coloured`), read through its
+        ζ-marginal; only ``nx``, ``ny``, ``nz``, ``degree`` (2 or 3; 1 means the
+        default 2), ``y_max`` and ``rtol`` apply.
 
     Raises
     ------
@@ -116,6 +127,8 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
     -----
     Every option is declared once in :class:`fpk_vibro.fem.Options`.
     """
+    if getattr(system, "external", None) is not None:
+        return _coloured(system, locals())
     chosen = (mesh is None and nx is None and ny is None and degree == 1
               and positivity == "auto" and element == "quad" and assembly != "general")
     best_effort = rtol is None and chosen
@@ -129,5 +142,27 @@ def stationary(system: VibroImpactSystem, *, mesh=None, nx: int | None = None,
         sol = build(system, opts).stationary(opts.solver)
         sol._options = opts
     # the stationary power balance (noise in = damping + impacts): a check of p_h
+    sol.info["power_balance_residual"] = sol.power_balance()["residual"]
+    return sol
+
+
+#: fem.stationary's keywords a coloured-noise solve takes (the others at their defaults).
+_COLOURED_KEYS = ("nx", "ny", "nz", "degree", "y_max", "rtol", "progress")
+
+
+def _coloured(system: VibroImpactSystem, given: dict) -> FEMSolution:
+    from .._checks import InputError
+    from .coloured import stationary_coloured
+    defaults = stationary.__kwdefaults__
+    for key, value in given.items():
+        if key not in _COLOURED_KEYS and key != "system" and value is not defaults[key] \
+                and value != defaults[key]:
+            raise InputError(f"fem.stationary: {key} is not an option of the coloured-noise "
+                             f"(3-D) solve; it takes {', '.join(_COLOURED_KEYS)}",
+                             where="fem.stationary", name=key)
+    kw = {k: given[k] for k in _COLOURED_KEYS}
+    if kw["degree"] == 1:
+        kw["degree"] = None
+    sol = stationary_coloured(system, **kw)
     sol.info["power_balance_residual"] = sol.power_balance()["residual"]
     return sol
