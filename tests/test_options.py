@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fpk_vibro.forcing import FORCING_KEYS
+from fpk_vibro.noise import EXTERNAL_KEYS
 from fpk_vibro import VibroImpactSystem, averaging, fem, montecarlo
 from fpk_vibro._checks import InputError
 from fpk_vibro.app.cli import build_parser
@@ -69,8 +70,9 @@ def test_the_model_fields_are_the_scene_keys():
         table, _, key = opt.scene.partition(".")
         if key:
             assert SCHEMA[table][key] is opt
-        else:                  # a field that is a whole table: [forcing]
-            assert tuple(SCHEMA[table]) == FORCING_KEYS
+        else:                  # a field that is a whole table: [forcing], [external]
+            assert tuple(SCHEMA[table]) == {"forcing": FORCING_KEYS,
+                                            "external": EXTERNAL_KEYS}[table]
         default = fields[name].default
         if opt.default is REQUIRED:
             assert default is dataclasses.MISSING

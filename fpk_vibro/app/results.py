@@ -53,11 +53,16 @@ def write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]]
                 doc["figures"] = [run_plots.sweep_overlay(
                     merged, listed, q, out_dir / f"sweep_{q}.png", title=scene.name).name
                     for q in ("energy", "x", "y") if q in scene.quantities]
-                if "moments" in scene.quantities and not scene.transient and any(
-                        r.get("status") == "done" for r in listed):
-                    doc["figures"].append(run_plots.sweep_moments(
-                        listed, out_dir / "sweep_moments.png", title=scene.name).name)
                 atomic_json(out_dir / "results.json", doc)
+    # the moments against the swept parameter (forcing.frequency, external.tau, ...)
+    # need no densities: drawn with or without "npz"
+    if scene.sweep and "png" in scene.formats and signum is None and \
+            "moments" in scene.quantities and not scene.transient and any(
+                r.get("status") == "done" for r in listed):
+        from . import run_plots
+        doc.setdefault("figures", []).append(run_plots.sweep_moments(
+            listed, out_dir / "sweep_moments.png", title=scene.name).name)
+        atomic_json(out_dir / "results.json", doc)
     if scene.periodic and scene.sweep and "png" in scene.formats and signum is None and any(
             r.get("status") == "done" for r in listed):
         from .periodic_plots import response_curve

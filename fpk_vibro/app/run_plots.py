@@ -163,9 +163,20 @@ def sweep_overlay(arrays: dict, points: list, quantity: str, path, *, title: str
     return _save(fig, path)
 
 
+def _swept_label(p: str) -> str:
+    """A swept parameter with its unit: ``external.tau (s)``, ``D1``."""
+    from .scene_keys import sweep_option
+    try:
+        unit = sweep_option(p).unit
+    except KeyError:
+        unit = ""
+    return f"{p} ({unit})" if unit else p
+
+
 def sweep_moments(points: list, path, *, keys=("E_H", "E_x2", "E_y2"), title: str = "") -> Path:
-    """Moments against the (first) swept parameter, one line per method (Monte Carlo
-    ±1 SE); a two-parameter sweep is faceted: one row of panels per value of the
+    """Moments against the (first) swept parameter (any of them: ``D1``,
+    ``forcing.frequency``, ``external.tau``), one line per method (Monte Carlo ±1 SE);
+    a two-parameter sweep is faceted: one row of panels per value of the
     second parameter."""
     done = [p for p in points if p.get("status") == "done"]
     params = list(done[0]["parameters"]) if done else []
@@ -195,7 +206,7 @@ def sweep_moments(points: list, path, *, keys=("E_H", "E_x2", "E_y2"), title: st
                     style = dict(_STYLE.get(method, {}))
                     style.setdefault("color", f"C{mi}")
                     ax.plot(xs, ys, marker=".", label=name, **style)
-            ax.set_xlabel(first)
+            ax.set_xlabel(_swept_label(first))
             ax.set_ylabel({"E_H": r"$E[H]$ (J/kg)", "E_x2": r"$E[x^2]$ (m²)",
                            "E_y2": r"$E[y^2]$ (m²/s²)"}.get(key, key))
             if second is not None:

@@ -3,7 +3,8 @@
 Layout of an output directory::
 
     results.json            the scene echoed, per point and method: moments (with
-                            standard errors where they exist), wall time, effects
+                            standard errors where they exist), wall time, effects;
+                            with [external] also "coloured": E[ζ²], E[ζ y] (+ "_se")
     densities.npz           grids and densities, keys "p{i}.{method}.{quantity}.{grid|pdf|se}"
     p{i}_{quantity}.png     figures: p(H), p(x), p(y) with every method overlaid
     p{i}_joint.png          joint densities side by side
@@ -72,6 +73,8 @@ def _moments_record(sol: Any) -> dict[str, Any]:
     rec: dict[str, Any] = {"moments": sol.moments()}
     if hasattr(sol, "moments_se"):
         rec["moments_se"] = sol.moments_se()
+    if sol.system.external is not None:     # E[ζ²], E[ζ y] (+ "_se" where sampled)
+        rec["coloured"] = {k: float(v) for k, v in sol.coloured_moments().items()}
     for attr in ("mass", "min_density", "residual", "impact_rate", "n_paths", "dt", "partial",
                  "seed_entropy"):
         val = getattr(sol, attr, None)

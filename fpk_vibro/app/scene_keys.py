@@ -2,7 +2,8 @@
 
 ``[system]`` and ``[barriers]`` come from :data:`fpk_vibro.model.FIELDS` (the walls'
 sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[forcing]`` from
-:data:`FORCING_FIELDS` (the keys of :class:`fpk_vibro.forcing.Harmonic`),
+:data:`FORCING_FIELDS` (the keys of :class:`fpk_vibro.forcing.Harmonic`), ``[external]``
+from :data:`EXTERNAL_FIELDS` (those of :class:`fpk_vibro.noise.OrnsteinUhlenbeck`),
 ``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the rest
 from :data:`STUDY_KEYS` here.  Parsing a scene is :mod:`fpk_vibro.app.scenes`.
 """
@@ -17,7 +18,8 @@ from ..model import FIELDS, WALL_FIELDS
 from ..options import REQUIRED, Option, PerMode
 
 __all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "IMPACT_QUANTITIES", "LAW_PARAMETERS",
-           "NOT_PERIODIC", "FORCING_FIELDS", "DEFAULT_PHASES", "FORMATS", "ERROR_ESTIMATES",
+           "NOT_PERIODIC", "FORCING_FIELDS", "EXTERNAL_FIELDS", "FIELD_TABLES",
+           "DEFAULT_PHASES", "FORMATS", "ERROR_ESTIMATES",
            "SWEEPABLE", "STUDY_KEYS",
            "TABLES", "SceneError", "table_keys", "schema_table", "sweep_option",
            "method_names", "method_tables", "tables"]
@@ -45,6 +47,16 @@ FORCING_FIELDS = {
     "phase": Option(0.0, "φ0 of the forcing (taken mod 2π): the phase at t = 0", "float",
                     unit="rad"),
 }
+#: The keys of ``[external]`` (:class:`fpk_vibro.noise.OrnsteinUhlenbeck`; it checks them
+#: too): coloured external noise.
+EXTERNAL_FIELDS = {
+    "tau": Option(REQUIRED, "correlation time τ of the coloured external noise ζ, an "
+                  "Ornstein–Uhlenbeck force of intensity system.D1 (E[ζ²] = D1/τ); required "
+                  "in an [external] table, which is optional (none: white noise)", "float",
+                  lo=0.0, lo_open=True, unit="s"),
+}
+#: The optional tables that are one model field each ([forcing] and [external]).
+FIELD_TABLES = {"forcing": FORCING_FIELDS, "external": EXTERNAL_FIELDS}
 FORMATS = ("json", "npz", "png", "vtu", "nc")
 #: study.error_estimates: how each answer's error is estimated (fpk_vibro.app.estimates).
 ERROR_ESTIMATES = ("auto", "fem-check", "none")
@@ -61,15 +73,15 @@ LAW_PARAMETERS = {
 SWEEPABLE = ("a", "b", "c", "D1", "D2", "delta", "r", "left.position", "left.r",
              "right.position", "right.r") + tuple(
     f"{wall}r.{k}" for wall in ("", "left.", "right.") for k in LAW_PARAMETERS) + (
-    "forcing.amplitude", "forcing.frequency")
+    "forcing.amplitude", "forcing.frequency", "external.tau")
 
 
 def sweep_option(p: str) -> Option:
     """The declaration a swept value is checked against (a model or a wall field, or a
     parameter of a law: ``r.r1``, ``left.r.u0``)."""
     parts = p.split(".")
-    if parts[0] == "forcing":
-        return FORCING_FIELDS[parts[1]]
+    if parts[0] in FIELD_TABLES:
+        return FIELD_TABLES[parts[0]][parts[1]]
     if parts[-1] in LAW_PARAMETERS and len(parts) >= 2 and parts[-2] == "r":
         return LAW_PARAMETERS[parts[-1]]
     return WALL_FIELDS[parts[1]] if len(parts) > 1 else FIELDS[p]
@@ -224,7 +236,7 @@ def method_tables() -> tuple[str, ...]:
 
 def tables() -> tuple[str, ...]:
     """Every table a scene may hold, the methods' tables among them."""
-    return ("system", "barriers", "forcing", "study") + method_tables() + (
+    return ("system", "barriers", "forcing", "external", "study") + method_tables() + (
         "initial", "first_passage", "sweep", "output")
 
 
@@ -236,8 +248,8 @@ def table_keys(table: str) -> dict[str, Option]:
     if table in ("system", "barriers"):
         return {opt.scene.split(".")[1]: opt for opt in FIELDS.values()
                 if opt.scene.startswith(table + ".")}
-    if table == "forcing":
-        return FORCING_FIELDS
+    if table in FIELD_TABLES:
+        return FIELD_TABLES[table]
     if table in method_tables():
         return {k: o for k, o in _method_options(table).declared().items()
                 if o.scene in ("", "file")}
@@ -258,6 +270,9 @@ def _sweep_doc(p: str) -> str:
     if parts[0] == "forcing":
         return (f"list of values of {p} (needs [forcing]; a sweep of forcing.frequency "
                 "draws the response curve)")
+    if parts[0] == "external":
+        return (f"list of values of {p} (needs [external]; each point is solved at its "
+                "τ, and the moments are drawn against τ)")
     return f"list of values of {p}"
 
 

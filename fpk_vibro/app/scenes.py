@@ -1,12 +1,14 @@
 """Scenes: a declared study in a small TOML file, validated before any work starts.
 
-A scene names the system, the barriers, an optional harmonic forcing, which methods
+A scene names the system, the barriers, an optional harmonic forcing or coloured
+external noise (``[external]``, an Ornstein–Uhlenbeck force of time τ), which methods
 to run, which quantities to compute and at which times (absent: stationary, or with
 ``[forcing]`` the periodic response at ``study.phases``), the numerics of each
 method, an optional sweep over one or two parameters, and the output.  Every key
 comes from one declaration: ``[system]`` and ``[barriers]`` from
 :data:`fpk_vibro.model.FIELDS`, ``[forcing]`` from
-:data:`~fpk_vibro.app.scene_keys.FORCING_FIELDS`,
+:data:`~fpk_vibro.app.scene_keys.FORCING_FIELDS`, ``[external]`` from
+:data:`~fpk_vibro.app.scene_keys.EXTERNAL_FIELDS`,
 ``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the
 rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the table of
 docs/guide/keys.md is generated from it).
@@ -32,7 +34,7 @@ from ..registry import methods as method_registry
 from .outdir import safe_name
 from .scene_impacts import (check_first_passage, check_law_sweep, check_laws, check_walls,
                             first_passage_table, flatten_sweep, point_system)
-from .scene_keys import (FORMATS, METHODS, NOT_PERIODIC, QUANTITIES,  # noqa: F401
+from .scene_keys import (FIELD_TABLES, FORMATS, METHODS, NOT_PERIODIC, QUANTITIES,  # noqa: F401
                          STATIONARY_ONLY, STUDY_KEYS, SWEEPABLE, TABLES, SceneError,
                          _method_options, method_tables,
                          schema_table, tables,
@@ -188,8 +190,9 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     sys_, bar, study = clean["system"], clean["barriers"], clean["study"]
     fields = {_FIELD_OF_KEY[f"system.{k}"]: v for k, v in sys_.items()}
     fields.update({_FIELD_OF_KEY[f"barriers.{k}"]: v for k, v in bar.items()})
-    if clean["forcing"]:
-        fields["forcing"] = clean["forcing"]
+    for table in FIELD_TABLES:          # [forcing], [external]: one field each
+        if clean[table]:
+            fields[table] = clean[table]
     sides = fields.get("barriers", "both")
     walls = fields.get("left") is not None or fields.get("right") is not None
     if sides != "none" and fields.get("delta") is None and not walls:
@@ -200,7 +203,8 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
         system = VibroImpactSystem(**fields)
     except InputError as exc:
         key = FIELDS[exc.name].scene if exc.name in FIELDS else \
-            exc.name if exc.name.startswith("forcing.") else "system"
+            exc.name if exc.name.startswith(tuple(f"{t}." for t in FIELD_TABLES)) \
+            else "system"
         raise SceneError(exc.keyed(key), name=key) from None
     sweep = {k: v for k, v in clean["sweep"].items() if v is not None}
     if len(sweep) > 2:
@@ -291,6 +295,9 @@ def _periodic(system: VibroImpactSystem, sweep: dict[str, Any], study: dict[str,
     ``study.phases`` or a sweep of the forcing without ``[forcing]`` refused."""
     forced = system.forcing is not None
     for k in sweep:
+        if k.startswith("external.") and system.external is None:
+            raise SceneError(f"sweep.{k}: sweeps the coloured external noise, and the scene "
+                             "has none; add [external] tau = τ", name=f"sweep.{k}")
         if k.startswith("forcing.") and not forced:
             raise SceneError(f"sweep.{k}: sweeps the harmonic forcing, and the scene has "
                              "none; add [forcing] amplitude = F, frequency = Ω",

@@ -47,6 +47,8 @@ BENCHMARKS: dict[str, Benchmark] = {
                                  "against a constant r"),
     "fem-periodic": Benchmark("fem_periodic", "the periodic FE state under harmonic "
                               "forcing: seconds, K, estimate, amplitude and lag"),
+    "fem-coloured": Benchmark("fem_coloured", "the 3-D coloured-noise solve: unknowns, "
+                              "iterations, memory and seconds against LU"),
 }
 
 

@@ -32,7 +32,8 @@ class ColouredFEMSolution(FEMSolution):
     Attributes
     ----------
     zeta_nodes, zeta_density : ndarray
-        The ζ-nodes (vertices of the ζ-mesh) and p(ζ) there.
+        The ζ-mesh's vertices and the coefficients of p(ζ) on its Lagrange basis (of
+        the solution's degree: nodal values).
     """
 
     kind = "fem_coloured"
@@ -50,10 +51,17 @@ class ColouredFEMSolution(FEMSolution):
         return {"E_zeta2": self.zeta["E_zeta2"], "E_zeta_y": self.zeta["E_zeta_y"]}
 
     def pdf_zeta(self, z: Any) -> np.ndarray:
-        """p(ζ) (piecewise linear between the ζ-vertices; zero beyond ±ζ_max).  Exactly
+        """p(ζ), the ζ-marginal of the FE density (zero beyond ±ζ_max).  Exactly
         N(0, D1/τ) for the true density, whatever the oscillator."""
+        from .generator import assemble_tensor_bases
         z = np.asarray(z, float)
-        return np.interp(z, self.zeta_nodes, self.zeta_density, left=0.0, right=0.0)
+        flat = z.ravel()
+        out = np.zeros(flat.size)
+        inside = (flat >= self.zeta_nodes[0]) & (flat <= self.zeta_nodes[-1])
+        if inside.any():
+            bz = assemble_tensor_bases(self.zeta_nodes, self.zeta_nodes, self.degree)[0]
+            out[inside] = bz.probes(flat[inside][None, :]) @ self.zeta_density
+        return np.maximum(out, 0.0).reshape(z.shape)
 
     def _inter_impact(self):
         raise InputError("fem: inter-impact times of a system with coloured noise need ζ "
@@ -73,7 +81,7 @@ class ColouredFEMSolution(FEMSolution):
     def _array_schema(cls, meta):
         out = array_schema(meta)
         out["zeta_nodes"] = Stored(("nz",), min_size=2, increasing=True)
-        out["zeta_density"] = Stored(("nz",), nonneg=True)
+        out["zeta_density"] = Stored(("nzdofs",), nonneg=True)
         return out
 
     @classmethod

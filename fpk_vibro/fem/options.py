@@ -118,7 +118,8 @@ class Options(_Options):
                             lo=2, hi=10 ** 6, even=True, reduced=32, modes=ALLP,
                             auto="h_y ≈ 1.5 h_x, at most 4 nx (first passage: 2 nx)")
     nz: int | None = option(None, "cells across ζ (coloured external noise only: the 3-D "
-                            "solve, fpk_vibro.fem.coloured)", "int", lo=2, hi=4096, even=True,
+                            "solve, fpk_vibro.fem.coloured; below 8 its ζ-spectrum is not "
+                            "resolved)", "int", lo=8, hi=4096, even=True,
                             reduced=8, modes=S, auto="12")
     y_max: float | None = option(None, "velocity truncation |y| < y_max", "float", lo=0.0,
                                  lo_open=True, unit="m/s", modes=DENSP,
@@ -186,7 +187,8 @@ class Options(_Options):
     tol: float | None = option(None, "local L1 error per adaptive BDF2 step", "float",
                                lo=1e-14, hi=1.0, modes=T,
                                auto="3e-4 when dt is not given (adaptive), else fixed steps")
-    progress: bool | None = option(None, "a progress line on stderr", "bool", modes=T,
+    progress: bool | None = option(None, "a progress line on stderr (stationary: the 3-D "
+                                   "coloured-noise solve)", "bool", modes=("stationary", "transient"),
                                    scene="cli --quiet", auto="when stderr is a terminal")
     discretisation: Any = option(None, "an assembled mesh and operator to reuse", "custom",
                                  check=_discretisation, allowed="a Discretisation", modes=T,
