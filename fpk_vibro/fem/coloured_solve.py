@@ -13,18 +13,27 @@ T_n = A + λ_n M_xy, coupled to its neighbours by C W̃: the unknowns are the mo
 coefficients q_n(x, y), q_0 the ζ-marginal p(x, y) (times the mode's norm), and the
 mass constraint is one pinned row of the q_0 block.
 
-Preconditioner: the first ``coupled`` modes (default 2) are solved together by one
-sparse LU of their block system (mode 0 alone is the noise-free transport A, whose
-balance with mode 1 is the energy diffusion the noise drives: treating that coupling
-explicitly took 150-290 GMRES iterations where the coupled block needs 50-60, on the
-paper case at 4·10⁴ unknowns); the other modes follow by one upward block
-Gauss–Seidel sweep with their own 2-D LU.  GMRES on the mode system, restarted
-every ``restart`` iterations.  Measured alternatives (same case, 4·10⁴ unknowns):
-pyamg's smoothed aggregation (nonsymmetric) stalls at residual 1, pyamg's AIR did not
-finish its setup in 300 s, SciPy's ILU (drop 1e-3) 28 s, direct SuperLU 66 s; the mode
-solver 0.6 s.  Its weakness: refining y alone raises the iterations (48 → 96 cells
-in y: 55 → 430), as the drift ζ ∂/∂y couples the modes more strongly on finer
-y-scales than the damping −n/τ holds them apart.
+Preconditioner, two sweeps in turn:
+
+1. modal: the first ``coupled`` modes (default 2) solved together by one sparse LU
+   of their block system (mode 0 alone is the noise-free transport A, whose balance
+   with mode 1 is the energy diffusion the noise drives: treating that coupling
+   explicitly took 150-290 GMRES iterations where the coupled block needs 50-60, on
+   the paper case at 4·10⁴ unknowns), the other modes by one upward block
+   Gauss–Seidel sweep with their own 2-D LU;
+2. nodal (``smoother``): on the residual the modal sweep leaves, one symmetric block
+   Gauss–Seidel sweep over the ζ-slices, each slice's diagonal block
+   A M_ζ[k,k] + C W_ζ[k,k] + M_xy K_ζ[k,k] by its own 2-D LU.  In the modes the drift
+   ζ ∂/∂y couples neighbours, and on fine y-scales more strongly than their damping
+   n/τ separates them (the modal sweep alone: 55 iterations on 16 × 24 × 12 cells,
+   299 on 16 × 48 × 12); on a ζ-slice that drift is local, so the slices take those
+   scales (65 iterations on 16 × 48 × 12), the modes the ζ-coupling.
+
+GMRES on the mode system, restarted every ``restart`` iterations.  Measured
+alternatives (paper case, 4·10⁴ unknowns): pyamg's smoothed aggregation
+(nonsymmetric) stalls at residual 1, pyamg's AIR did not finish its setup in 300 s,
+SciPy's ILU (drop 1e-3) 28 s, direct SuperLU 66 s; this solver about 1 s
+(docs/measurements.md, §Coloured noise).
 """
 from __future__ import annotations
 
@@ -79,7 +88,7 @@ class ModeSolver:
     """
 
     def __init__(self, op: ColouredOperator, *, coupled: int = 2, restart: int = 100,
-                 progress: bool | None = None) -> None:
+                 smoother: bool = True, progress: bool | None = None) -> None:
         t0 = time.perf_counter()
         self.op = op
         P = op.parts
@@ -90,14 +99,18 @@ class ModeSolver:
         self.K = K = max(1, min(int(coupled), nm))
         unit2 = np.asarray(self.Mxy.sum(axis=0)).ravel()
         self.pin = int(np.argmax(unit2))
-        bar = Progress(progress, "fem coloured: factorising the ζ-modes", float(nm))
+        self.smoother = bool(smoother)
+        steps = nm * (2 if smoother else 1)
+        bar = Progress(progress, "fem coloured: factorising the ζ-modes and slices",
+                       float(steps))
         try:
             self._solve, nnz = {}, 0
             for k in range(K, nm):
                 self._solve[k], f = _lu(self.A + self.lam[k] * self.Mxy)
                 nnz += f
                 if k == K:
-                    self._check_memory(f * (nm - K) * 3 + f * K * K * 3, op.size)
+                    self._check_memory(f * (nm - K + K * K * 3 + (nm if smoother else 0)),
+                                       op.size)
                 bar.update(k - K + 1)
             rows = [[(self.A + self.lam[i] * self.Mxy if i == j else None) for j in range(K)]
                     for i in range(K)]
@@ -110,11 +123,30 @@ class ModeSolver:
             self._block, f = _lu(block)
             nnz += f
             bar.update(nm)
+            if self.smoother:
+                nnz += self._factor_slices(bar)
         finally:
             bar.close()
         self.info = {"modes": nm, "coupled_modes": K, "factor_nnz": nnz,
                      "factor_bytes": 12 * nnz, "setup_seconds": time.perf_counter() - t0,
-                     "solver": f"gmres on ζ-modes ({K} coupled + block Gauss-Seidel)"}
+                     "solver": f"gmres on ζ-modes ({K} coupled + block Gauss-Seidel"
+                               + (", symmetric ζ-slice sweep)" if smoother else ")")}
+
+    def _factor_slices(self, bar: Progress) -> int:
+        """The diagonal blocks of L over the ζ-slices, factorised, and each slice's
+        neighbours (l, M_ζ[k, l], W_ζ[k, l], K_ζ[k, l]); nnz of the factors."""
+        P = self.op.parts
+        Mz, Wz, Kz = (P[k].toarray() for k in ("Mz", "Wz", "Kz"))
+        self._slice, self._neighbours, nnz = {}, {}, 0
+        for k in range(self.nm):
+            self._slice[k], f = _lu(self.A * Mz[k, k] + self.C * Wz[k, k] + self.Mxy * Kz[k, k])
+            nnz += f
+            cols = np.flatnonzero((Mz[k] != 0) | (Wz[k] != 0) | (Kz[k] != 0))
+            self._neighbours[k] = [(int(l), (Mz[k, l], Wz[k, l], Kz[k, l]))
+                                   for l in cols if l != k]
+            bar.update(self.nm + k + 1)
+        self._Uinv, self._Vinv = np.linalg.inv(self.U), np.linalg.inv(self.V)
+        return nnz
 
     @staticmethod
     def _check_memory(factor_nnz: float, size: int) -> None:
@@ -137,19 +169,41 @@ class ModeSolver:
         Y[self.pin, 0] = Q[self.pin, 0]
         return Y.ravel()
 
-    def _precondition(self, r: np.ndarray) -> np.ndarray:
+    def _modal_sweep(self, r: np.ndarray) -> np.ndarray:
         R = r.reshape(self.n2, self.nm)
         K = self.K
         Q = np.zeros_like(R)
-        if K < self.nm:        # the first modes' data from the others: none yet
-            rhs = R[:, :K].copy()
-        else:
-            rhs = R.copy()
+        rhs = R[:, :K].copy()
         rhs[self.pin, 0] = R[self.pin, 0]
         Q[:, :K] = self._block(rhs.T.ravel()).reshape(K, self.n2).T
-        for k in range(K, self.nm):                  # upward sweep
-            Q[:, k] = self._solve[k](R[:, k] - self.C @ (Q @ self.Wt[k, :]))
+        for k in range(K, self.nm):                  # upward (W̃ is tridiagonal only
+            # for the resolved low modes)
+            Q[:, k] = self._solve[k](R[:, k] - self.C @ (Q[:, :k] @ self.Wt[k, :k]))
         return Q.ravel()
+
+    def _slice_sweep(self, R: np.ndarray) -> np.ndarray:
+        """Symmetric block Gauss–Seidel over the ζ-slices (nodal residual R, n2 × nm);
+        A z_l, C z_l, M_xy z_l are kept per slice, so each slice solve costs three
+        2-D products."""
+        Z = np.zeros_like(R)
+        AZ, CZ, MZ = np.zeros_like(R), np.zeros_like(R), np.zeros_like(R)
+        order = list(range(self.nm)) + list(range(self.nm - 2, -1, -1))
+        for k in order:
+            rhs = R[:, k].copy()
+            for l, (mz, wz, kz) in self._neighbours[k]:
+                rhs -= mz * AZ[:, l] + wz * CZ[:, l] + kz * MZ[:, l]
+            z = self._slice[k](rhs)
+            Z[:, k], AZ[:, k], CZ[:, k], MZ[:, k] = z, self.A @ z, self.C @ z, self.Mxy @ z
+        return Z
+
+    def _precondition(self, r: np.ndarray) -> np.ndarray:
+        """The modal sweep, then (``smoother``) one symmetric sweep over the ζ-slices
+        on what it left (module docstring)."""
+        z = self._modal_sweep(r)
+        if not self.smoother:
+            return z
+        left = (r - self._apply(z)).reshape(self.n2, self.nm) @ self._Uinv
+        return z + (self._slice_sweep(left) @ self._Vinv.T).ravel()
 
     def solve(self, *, tol: float = 1e-10, maxiter: int = 1000,
               progress: bool | None = None) -> tuple[np.ndarray, dict]:
