@@ -279,7 +279,7 @@ provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(s
 
 #: What a system with coloured noise gives, per method: the modes, and the quantities
 #: (fem: those of the ζ-marginal; the impact-to-impact records need ζ at the impact).
-COLOURED = {"fem": (("stationary",), ("energy", "x", "y", "joint", "moments", "impacts")),
+COLOURED = {"fem": (("stationary", "transient"), ("energy", "x", "y", "joint", "moments", "impacts")),
             "montecarlo": (("stationary", "transient"),
                            ("energy", "x", "y", "joint", "moments", "impacts",
                             "inter_impact", "impact_energy"))}

@@ -120,7 +120,9 @@ def test_save_and_load_keep_the_answer(paper, tmp_path):
     (lambda: fem.stationary(PAPER, nz=6), "nz must be"),
     (lambda: fem.stationary(PAPER, positivity=True), "positivity is not an option"),
     (lambda: fem.transient(PAPER, initial={"mean": [0, 0], "std": [0.1, 0.1]},
-                           times=[1.0]), "coloured external noise"),
+                           times=[1.0], positivity=True), "positivity is not an option"),
+    (lambda: fem.transient(PAPER, initial={"mean": [0, 0], "std": [0.1, 0.1]},
+                           times=[1.0], nz=9), "nz must be even"),
     (lambda: averaging.stationary(PAPER), "fem.stationary.*montecarlo"),
     (lambda: fem.first_passage(PAPER, energy=0.2), "coloured external noise"),
 ])
@@ -133,3 +135,28 @@ def test_refusals_are_one_line(call, match):
 def test_inter_impact_is_refused(paper):
     with pytest.raises(InputError, match="montecarlo"):
         paper.mean_inter_impact_time()
+
+
+def test_transient_follows_the_lyapunov_ode_within_its_estimate():
+    """From x ~ N(0.3, 0.2²), y ~ N(0, 0.2²), ζ stationary: mean and covariance of the
+    linear system solve m' = A m, Σ' = A Σ + Σ Aᵀ + B Bᵀ; mass stays 1."""
+    from scipy.integrate import solve_ivp
+    from scipy.linalg import expm
+    from fpk_vibro.linear import drift_and_noise
+    A, B = drift_and_noise(LINEAR)
+    times = [1.0, 2.0]
+    S0 = np.diag([0.04, 0.04, LINEAR.external.variance(LINEAR.D1)])
+    cov = solve_ivp(lambda t, v: (A @ v.reshape(3, 3) + v.reshape(3, 3) @ A.T
+                                  + B @ B.T).ravel(), (0.0, 2.0), S0.ravel(), t_eval=times,
+                    rtol=1e-11, atol=1e-14).y.T.reshape(-1, 3, 3)
+    run = fem.transient(LINEAR, initial={"mean": [0.3, 0.0], "std": [0.2, 0.2]},
+                        times=times, dt=0.1, **SMALL)
+    assert [s.time for s in run] == pytest.approx(times)
+    for sol, S, t in zip(run, cov, times):
+        mean = expm(A * t) @ np.array([0.3, 0.0, 0.0])
+        assert abs(sol.info["mass_drift"]) < 1e-12
+        est = sol.error_estimate()
+        for key, want in (("E_x2", S[0, 0] + mean[0] ** 2), ("E_y2", S[1, 1] + mean[1] ** 2)):
+            err = abs(sol.moments()[key] / want - 1.0)
+            assert err <= est[key], (t, key, err, est[key])
+            assert est[key] < 20 * max(err, 1e-4)          # and not loose

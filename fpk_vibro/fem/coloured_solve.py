@@ -88,14 +88,21 @@ class ModeSolver:
     """
 
     def __init__(self, op: ColouredOperator, *, coupled: int = 2, restart: int = 100,
-                 smoother: bool = True, progress: bool | None = None) -> None:
+                 smoother: bool = True, shift: float = 0.0,
+                 progress: bool | None = None) -> None:
         t0 = time.perf_counter()
+        # shift σ > 0: the factors are those of L − σM (a time step's), no pin
+        self.shift = float(shift)
+        self.pinned = self.shift == 0.0
         self.op = op
         P = op.parts
         self.A, self.Mxy, self.C = P["A"].tocsr(), P["Mxy"].tocsr(), P["C"].tocsr()
         self.lam, self.U, self.V, self.Wt = zeta_modes(op)
+        lam = self.lam - self.shift
         n2, nm = self.A.shape[0], self.lam.size
         self.n2, self.nm, self.restart = n2, nm, int(restart)
+        self._Uinv, self._Vinv = np.linalg.inv(self.U), np.linalg.inv(self.V)
+        self._sigma = self.shift
         self.K = K = max(1, min(int(coupled), nm))
         unit2 = np.asarray(self.Mxy.sum(axis=0)).ravel()
         self.pin = int(np.argmax(unit2))
@@ -106,20 +113,22 @@ class ModeSolver:
         try:
             self._solve, nnz = {}, 0
             for k in range(K, nm):
-                self._solve[k], f = _lu(self.A + self.lam[k] * self.Mxy)
+                self._solve[k], f = _lu(self.A + lam[k] * self.Mxy)
                 nnz += f
                 if k == K:
                     self._check_memory(f * (nm - K + K * K * 3 + (nm if smoother else 0)),
                                        op.size)
                 bar.update(k - K + 1)
-            rows = [[(self.A + self.lam[i] * self.Mxy if i == j else None) for j in range(K)]
+            rows = [[(self.A + lam[i] * self.Mxy if i == j else None) for j in range(K)]
                     for i in range(K)]
             for i in range(K):
                 for j in range(K):
                     if self.Wt[i, j] != 0.0:
                         extra = self.Wt[i, j] * self.C
                         rows[i][j] = extra if rows[i][j] is None else rows[i][j] + extra
-            block, _, _ = pinned_system(sp.bmat(rows, format="csr"), np.ones(K * n2), self.pin)
+            block = sp.bmat(rows, format="csr")
+            if self.pinned:
+                block = pinned_system(block, np.ones(K * n2), self.pin)[0]
             self._block, f = _lu(block)
             nnz += f
             bar.update(nm)
@@ -137,6 +146,7 @@ class ModeSolver:
         neighbours (l, M_ζ[k, l], W_ζ[k, l], K_ζ[k, l]); nnz of the factors."""
         P = self.op.parts
         Mz, Wz, Kz = (P[k].toarray() for k in ("Mz", "Wz", "Kz"))
+        Kz = Kz - self.shift * Mz
         self._slice, self._neighbours, nnz = {}, {}, 0
         for k in range(self.nm):
             self._slice[k], f = _lu(self.A * Mz[k, k] + self.C * Wz[k, k] + self.Mxy * Kz[k, k])
@@ -145,7 +155,6 @@ class ModeSolver:
             self._neighbours[k] = [(int(l), (Mz[k, l], Wz[k, l], Kz[k, l]))
                                    for l in cols if l != k]
             bar.update(self.nm + k + 1)
-        self._Uinv, self._Vinv = np.linalg.inv(self.U), np.linalg.inv(self.V)
         return nnz
 
     @staticmethod
@@ -163,10 +172,14 @@ class ModeSolver:
     def to_density(self, q: np.ndarray) -> np.ndarray:
         return (q.reshape(self.n2, self.nm) @ self.V.T).ravel()
 
-    def _apply(self, q: np.ndarray) -> np.ndarray:
+    def _apply(self, q: np.ndarray, shift: float | None = None) -> np.ndarray:
+        """L − σM in the modes (σ = ``shift``, default the factors'); the pinned row
+        when σ = 0."""
+        sigma = self.shift if shift is None else shift
         Q = q.reshape(self.n2, self.nm)
-        Y = self.A @ Q + (self.Mxy @ Q) * self.lam + self.C @ (Q @ self.Wt.T)
-        Y[self.pin, 0] = Q[self.pin, 0]
+        Y = self.A @ Q + (self.Mxy @ Q) * (self.lam - sigma) + self.C @ (Q @ self.Wt.T)
+        if sigma == 0.0:
+            Y[self.pin, 0] = Q[self.pin, 0]
         return Y.ravel()
 
     def _modal_sweep(self, r: np.ndarray) -> np.ndarray:
@@ -174,7 +187,6 @@ class ModeSolver:
         K = self.K
         Q = np.zeros_like(R)
         rhs = R[:, :K].copy()
-        rhs[self.pin, 0] = R[self.pin, 0]
         Q[:, :K] = self._block(rhs.T.ravel()).reshape(K, self.n2).T
         for k in range(K, self.nm):                  # upward (W̃ is tridiagonal only
             # for the resolved low modes)
@@ -202,24 +214,15 @@ class ModeSolver:
         z = self._modal_sweep(r)
         if not self.smoother:
             return z
-        left = (r - self._apply(z)).reshape(self.n2, self.nm) @ self._Uinv
+        left = (r - self._apply(z, self._sigma)).reshape(self.n2, self.nm) @ self._Uinv
         return z + (self._slice_sweep(left) @ self._Vinv.T).ravel()
 
-    def solve(self, *, tol: float = 1e-10, maxiter: int = 1000,
-              progress: bool | None = None) -> tuple[np.ndarray, dict]:
-        """(p normalised to ∫ p = 1 in Kronecker order, info: iterations, residual
-        (the backward error of L p = 0 with the pin), seconds).
-
-        Raises
-        ------
-        SolverNotConverged
-            If GMRES misses ``tol`` (never an unconverged density).
-        """
-        t0 = time.perf_counter()
+    def _gmres(self, b: np.ndarray, sigma: float, tol: float, maxiter: int,
+               progress: bool | None, x0: np.ndarray | None = None
+               ) -> tuple[np.ndarray, int]:
         N = self.n2 * self.nm
-        b = np.zeros(N)
-        b[self.pin * self.nm] = 1.0
-        A = spla.LinearOperator((N, N), matvec=self._apply, dtype=float)
+        self._sigma = sigma
+        A = spla.LinearOperator((N, N), matvec=lambda q: self._apply(q, sigma), dtype=float)
         M = spla.LinearOperator((N, N), matvec=self._precondition, dtype=float)
         count = [0]
         bar = Progress(progress, "fem coloured: GMRES", float(maxiter), unit="it")
@@ -228,20 +231,47 @@ class ModeSolver:
             count[0] += 1
             bar.update(count[0])
         try:
-            q, _ = spla.gmres(A, b, M=M, rtol=tol, restart=min(self.restart, N),
+            q, _ = spla.gmres(A, b, x0=x0, M=M, rtol=tol, restart=min(self.restart, N),
                               maxiter=max(1, -(-maxiter // self.restart)), callback=step,
                               callback_type="pr_norm")
         finally:
             bar.close()
-        res = float(np.linalg.norm(A @ q - b))
+        res = float(np.linalg.norm(A @ q - b) / max(np.linalg.norm(b), 1e-300))
         if not np.isfinite(res) or res > 10 * tol:
             raise SolverNotConverged("fem coloured gmres", count[0], res, tol)
+        return q, count[0]
+
+    def solve(self, *, tol: float = 1e-10, maxiter: int = 1000,
+              progress: bool | None = None) -> tuple[np.ndarray, dict]:
+        """The stationary density (σ = 0): (p normalised to ∫ p = 1 in Kronecker order,
+        info: iterations, residual (the backward error of L p = 0), seconds).
+
+        Raises
+        ------
+        SolverNotConverged
+            If GMRES misses ``tol`` (never an unconverged density).
+        """
+        if not self.pinned:
+            raise ValueError("ModeSolver.solve: the stationary solve needs shift = 0")
+        t0 = time.perf_counter()
+        b = np.zeros(self.n2 * self.nm)
+        b[self.pin * self.nm] = 1.0
+        q, its = self._gmres(b, 0.0, tol, maxiter, progress)
         p = self.to_density(q)
         p /= float(self.op.unit @ p)
         L = self.op.L
         backward = float(np.max(np.abs(L @ p)) / (abs(L).sum(axis=1).max() * np.max(np.abs(p))))
-        return p, {"iterations": count[0], "residual": backward,
+        return p, {"iterations": its, "residual": backward,
                    "solve_seconds": time.perf_counter() - t0}
+
+    def step(self, rhs: np.ndarray, sigma: float, *, tol: float = 1e-10,
+             x0: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+        """x with (σ M − L) x = ``rhs`` (Kronecker order), σ > 0, preconditioned by the
+        factors of this solver's shift (exact when σ equals it); (x, iterations)."""
+        R = -rhs.reshape(self.n2, self.nm) @ self.U
+        q0 = None if x0 is None else (x0.reshape(self.n2, self.nm) @ self._Vinv.T).ravel()
+        q, its = self._gmres(R.ravel(), sigma, tol, 600, False, q0)
+        return self.to_density(q), its
 
 
 def solve_lu(op: ColouredOperator) -> tuple[np.ndarray, dict]:

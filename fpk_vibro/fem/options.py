@@ -102,9 +102,9 @@ class Options(_Options):
     #: fem.periodic solves for a forced system's periodic state and fem.transient
     #: marches one (its forcing explicit in IMEX-BDF2 steps).
     FORCED_MODES = ("transient", "periodic")
-    #: fem.stationary solves a system with coloured noise in (x, y, ζ)
-    #: (:mod:`fpk_vibro.fem.coloured`).
-    COLOURED_MODES = ("stationary",)
+    #: fem.stationary and fem.transient solve a system with coloured noise in
+    #: (x, y, ζ) (:mod:`fpk_vibro.fem.coloured`, :mod:`fpk_vibro.fem.coloured_transient`).
+    COLOURED_MODES = ("stationary", "transient")
 
     mesh: Any = option(None, "a mesh of the strip (walls at its x-extremes, symmetric in y, "
                        "y = 0 a mesh line); in a scene a file relative to it", "custom",
@@ -120,7 +120,7 @@ class Options(_Options):
     nz: int | None = option(None, "cells across ζ (coloured external noise only: the 3-D "
                             "solve, fpk_vibro.fem.coloured; below 8 its ζ-spectrum is not "
                             "resolved)", "int", lo=8, hi=4096, even=True,
-                            reduced=8, modes=S, auto="12")
+                            reduced=8, modes=("stationary", "transient"), auto="12")
     y_max: float | None = option(None, "velocity truncation |y| < y_max", "float", lo=0.0,
                                  lo_open=True, unit="m/s", modes=DENSP,
                                  auto="the energy-tail rule of fpk_vibro.scales (mass "

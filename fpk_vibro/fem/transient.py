@@ -110,7 +110,7 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
               discretisation: Discretisation | None = None,
               positivity: bool | str = False, element: str = "quad",
               grading: float = 0.0, wall_grading: float | None = None,
-              rtol: float | None = None) -> list[FEMSolution]:
+              rtol: float | None = None, nz: int | None = None) -> list[FEMSolution]:
     """Densities at ``times`` from ``initial`` (docs/theory.md, §Transients).
 
     Parameters
@@ -177,6 +177,8 @@ def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float]
         finished ones, each with ``partial=True`` in ``info``.
     """
     from .options import Options
+    if getattr(system, "external", None) is not None:
+        return _coloured(system, locals())
     check_system("fem.transient", system, forcing=True)
     t_out = parse_times(times, "fem.transient")
     gaussian = parse_initial(initial, system) if isinstance(initial, dict) else None
@@ -382,3 +384,21 @@ def _lagrange(hist: list[tuple[float, np.ndarray]], t: float) -> np.ndarray:
         w = math.prod((t - tj) / (ti - tj) for j, tj in enumerate(ts) if j != i)
         out += w * pi
     return out
+
+
+#: fem.transient's keywords a coloured-noise (3-D) transient takes.
+_COLOURED_KEYS = ("initial", "times", "dt", "nx", "ny", "nz", "degree", "y_max", "progress")
+
+
+def _coloured(system: VibroImpactSystem, given: dict) -> list[FEMSolution]:
+    from .._checks import InputError
+    from .coloured_transient import transient_coloured
+    defaults = transient.__kwdefaults__
+    for key, value in given.items():
+        if key in _COLOURED_KEYS or key in ("system", "Options"):
+            continue
+        if value is not defaults.get(key) and value != defaults.get(key):
+            raise InputError(f"fem.transient: {key} is not an option of the coloured-noise "
+                             f"(3-D) transient; it takes {', '.join(_COLOURED_KEYS)}",
+                             where="fem.transient", name=key)
+    return transient_coloured(system, **{k: given[k] for k in _COLOURED_KEYS})
