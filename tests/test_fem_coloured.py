@@ -116,13 +116,13 @@ def test_save_and_load_keep_the_answer(paper, tmp_path):
 
 
 @pytest.mark.parametrize("call, match", [
-    (lambda: fem.stationary(PAPER, nz=10, ny=15), "ny must be even"),
+    (lambda: fem.stationary(PAPER, nz=10, ny=15), "ny must be an even integer"),
     (lambda: fem.stationary(PAPER, nz=6), "nz must be"),
     (lambda: fem.stationary(PAPER, positivity=True), "positivity is not an option"),
     (lambda: fem.transient(PAPER, initial={"mean": [0, 0], "std": [0.1, 0.1]},
                            times=[1.0], positivity=True), "positivity is not an option"),
     (lambda: fem.transient(PAPER, initial={"mean": [0, 0], "std": [0.1, 0.1]},
-                           times=[1.0], nz=9), "nz must be even"),
+                           times=[1.0], nz=9), "nz must be an even integer"),
     (lambda: averaging.stationary(PAPER), "fem.stationary.*montecarlo"),
     (lambda: fem.first_passage(PAPER, energy=0.2), "coloured external noise"),
 ])

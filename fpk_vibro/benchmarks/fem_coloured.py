@@ -52,8 +52,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="a grid (repeatable); default: a table up to 9·10⁴ unknowns")
     ap.add_argument("--degree", type=int, default=2)
     ap.add_argument("--no-lu", action="store_true", help="skip the LU comparison")
+    ap.add_argument("--quick", action="store_true", help="the smallest grid only (a smoke test)")
     args = ap.parse_args(argv)
     grids = GRIDS if not args.grid else [tuple(int(v) for v in g.split(":")) for g in args.grid]
+    if args.quick:
+        grids = GRIDS[:1]
     print(f"{'grid':>12} {'unknowns':>9} {'iters':>5} {'factors GB':>10} {'peak GB':>7} "
           f"{'modes s':>7} {'LU s':>7} {'LU GB':>6} {'max diff':>8}")
     for nx, ny, nz in grids:

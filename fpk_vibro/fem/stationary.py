@@ -163,6 +163,7 @@ def _coloured(system: VibroImpactSystem, given: dict) -> FEMSolution:
     kw = {k: given[k] for k in _COLOURED_KEYS}
     if kw["degree"] == 1:
         kw["degree"] = None
+    Options.prepare(system, "stationary", {k: v for k, v in kw.items() if v is not None})
     sol = stationary_coloured(system, **kw)
     sol.info["power_balance_residual"] = sol.power_balance()["residual"]
     return sol

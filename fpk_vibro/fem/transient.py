@@ -401,4 +401,9 @@ def _coloured(system: VibroImpactSystem, given: dict) -> list[FEMSolution]:
             raise InputError(f"fem.transient: {key} is not an option of the coloured-noise "
                              f"(3-D) transient; it takes {', '.join(_COLOURED_KEYS)}",
                              where="fem.transient", name=key)
-    return transient_coloured(system, **{k: given[k] for k in _COLOURED_KEYS})
+    from .options import Options
+    kw = {k: given[k] for k in _COLOURED_KEYS}
+    Options.prepare(system, "transient", {k: v for k, v in kw.items()
+                                          if v is not None and k not in ("initial", "times")},
+                    times=kw["times"])
+    return transient_coloured(system, **kw)
