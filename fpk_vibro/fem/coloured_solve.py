@@ -38,6 +38,7 @@ SciPy's ILU (drop 1e-3) 28 s, direct SuperLU 66 s; this solver about 1 s
 """
 from __future__ import annotations
 
+import math
 import time
 from typing import Callable
 
@@ -74,6 +75,22 @@ def zeta_modes(op: ColouredOperator) -> tuple[np.ndarray, np.ndarray, np.ndarray
     lam, U, V = lam.real[order], U.real[:, order], V.real[:, order]
     U = U / np.diag(U.T @ Mz @ V)[None, :]
     return lam, U, V, U.T @ Wz @ V
+
+
+#: Modes below this keep factors of their own; above, modes whose λ − σ lie within a
+#: factor GROUP of each other share the factors of one representative (a preconditioner
+#: need not be exact: SuperLU keeps ~106 MB per 2-D factor of 2.5·10⁴ unknowns, so
+#: 161 ζ-modes would need 17 GB; grouped, 40).
+EXACT_MODES = 16
+GROUP = 1.15
+
+
+def _shared_shift(lam: float, k: int) -> float:
+    """The λ whose factors mode k uses (:data:`EXACT_MODES`, :data:`GROUP`)."""
+    if k < EXACT_MODES or lam >= -1e-12:
+        return float(lam)
+    step = math.log(GROUP)
+    return -math.exp(round(math.log(-lam) / step) * step)
 
 
 def _lu(A: sp.spmatrix) -> tuple[Callable, int]:
@@ -121,13 +138,18 @@ class ModeSolver:
         bar = Progress(progress, "fem coloured: factorising the ζ-modes and slices",
                        float(steps))
         try:
-            self._solve, nnz = {}, 0
+            self._solve, nnz, shared = {}, 0, {}
             for k in range(K, nm):
-                self._solve[k], f = _lu(self.A + lam[k] * self.Mxy)
+                key = _shared_shift(lam[k], k)
+                if key in shared:                   # a high mode: a neighbour's factors
+                    self._solve[k] = shared[key]
+                    continue
+                self._solve[k], f = shared[key] = _lu(self.A + key * self.Mxy)
+                self._solve[k] = shared[key] = self._solve[k]
                 nnz += f
                 if k == K:
-                    self._check_memory(f * (nm - K + K * K * 3 + (nm if smoother else 0)),
-                                       op.size)     # ("auto": the slices counted too)
+                    self._check_memory(f * (nm - K + K * K * 3 + (nm if self.smoother else 0)),
+                                       op.size)     # ("auto": the slices when added)
                 bar.update(k - K + 1)
             rows = [[(self.A + lam[i] * self.Mxy if i == j else None) for j in range(K)]
                     for i in range(K)]
@@ -146,7 +168,8 @@ class ModeSolver:
                 nnz += self._factor_slices(bar)
         finally:
             bar.close()
-        self.info = {"modes": nm, "coupled_modes": K, "factor_nnz": nnz,
+        self.info = {"modes": nm, "coupled_modes": K, "mode_factors": len(shared),
+                     "factor_nnz": nnz,
                      "factor_bytes": 12 * nnz, "setup_seconds": time.perf_counter() - t0}
         self._describe()
 
@@ -154,7 +177,17 @@ class ModeSolver:
         self.info["solver"] = (f"gmres on ζ-modes ({self.K} coupled + block Gauss-Seidel"
                                + (", symmetric ζ-slice sweep)" if self.smoother else ")"))
 
-    def _add_smoother(self) -> None:
+    def _add_smoother(self) -> bool:
+        """Factorise the slices for the slice sweep; False (and ``info["smoother"]``
+        says why) when their predicted memory is beyond the limit: GMRES goes on with
+        the modal sweep alone."""
+        per = self.info["factor_nnz"] / max(1, self.nm - self.K + 3 * self.K ** 2)
+        try:
+            self._check_memory(self.info["factor_nnz"] + per * self.nm, self.op.size)
+        except InputError as exc:
+            self.info["smoother"] = f"not added: {exc}"
+            self._auto = False
+            return False
         t0 = time.perf_counter()
         bar = Progress(None, "fem coloured: factorising the ζ-slices", float(2 * self.nm))
         try:
@@ -166,6 +199,7 @@ class ModeSolver:
         self.info["factor_bytes"] += 12 * nnz
         self.info["setup_seconds"] += time.perf_counter() - t0
         self._describe()
+        return True
 
     def _factor_slices(self, bar: Progress) -> int:
         """The diagonal blocks of L over the ζ-slices, factorised, and each slice's
@@ -253,8 +287,8 @@ class ModeSolver:
             q, first, res = self._krylov(b, sigma, tol, min(MODAL_FIRST, maxiter), progress, x0)
             if np.isfinite(res) and res <= 10 * tol:
                 return q, first
-            self._add_smoother()
             x0 = q if np.all(np.isfinite(q)) else x0
+            self._add_smoother()
         q, its, res = self._krylov(b, sigma, tol, maxiter - first, progress, x0)
         if not np.isfinite(res) or res > 10 * tol:
             raise SolverNotConverged("fem coloured gmres", first + its, res, tol)
