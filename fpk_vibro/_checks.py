@@ -191,3 +191,28 @@ def check_bool(name: str, value: Any, *, where: str | None = None) -> bool:
     if not isinstance(value, bool):
         raise invalid(where, name, "True or False", value)
     return value
+
+
+def from_table(cls: Any, value: Any, keys: tuple, required: tuple, where: str | None,
+               name: str, allowed: str) -> Any:
+    """None, an instance of ``cls``, or ``cls(**value)`` for a table ``value`` with
+    ``keys`` (``required`` among them): the one parser of a model's table field
+    (``[forcing]``, ``[external]``); anything else one line naming ``name``."""
+    if value is None or isinstance(value, cls):
+        return value
+    if isinstance(value, dict):
+        unknown = set(value) - set(keys)
+        if unknown or not set(required) <= set(value):
+            table = "{" + ", ".join(required) + (
+                "[, " + ", ".join(k for k in keys if k not in required) + "]"
+                if len(keys) > len(required) else "") + "}"
+            raise invalid(where, name, f"a table {table}", value,
+                          f"unknown {sorted(unknown)}" if unknown else
+                          f"{' and '.join(required)} {'is' if len(required) == 1 else 'are'} "
+                          "required")
+        try:
+            return cls(**value)
+        except InputError as exc:
+            raise InputError(f"{where}: {name}.{exc.name} {exc.rule}", where=where,
+                             name=f"{name}.{exc.name}") from None
+    raise invalid(where, name, allowed, value)

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import InputError, check_float, invalid
+from ._checks import InputError, check_float, from_table, invalid
 
 __all__ = ["Harmonic", "FORCING_KEYS", "first_harmonic", "check_phases"]
 
@@ -96,21 +96,9 @@ class Harmonic:
     def of(cls, value: Any, where: str | None = "VibroImpactSystem",
            name: str = "forcing") -> "Harmonic | None":
         """None, a :class:`Harmonic`, or its table {amplitude, frequency[, phase]}."""
-        if value is None or isinstance(value, Harmonic):
-            return value
-        if isinstance(value, dict):
-            unknown = set(value) - set(FORCING_KEYS)
-            if unknown or not {"amplitude", "frequency"} <= set(value):
-                raise invalid(where, name, "a table {amplitude, frequency[, phase]}", value,
-                              f"unknown {sorted(unknown)}" if unknown else
-                              "amplitude and frequency are required")
-            try:
-                return cls(**value)
-            except InputError as exc:
-                raise InputError(f"{where}: {name}.{exc.name} {exc.rule}", where=where,
-                                 name=f"{name}.{exc.name}") from None
-        raise invalid(where, name, "Harmonic(amplitude=F, frequency=Ω, phase=φ0) or its "
-                      "table {amplitude, frequency, phase}", value)
+        return from_table(cls, value, FORCING_KEYS, ("amplitude", "frequency"), where, name,
+                          "Harmonic(amplitude=F, frequency=Ω, phase=φ0) or its table "
+                          "{amplitude, frequency, phase}")
 
 
 def check_phases(where: str, phases: Any) -> np.ndarray:

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import InputError, check_float, invalid
+from ._checks import check_float, from_table
 
 __all__ = ["OrnsteinUhlenbeck", "EXTERNAL_KEYS"]
 
@@ -79,17 +79,5 @@ class OrnsteinUhlenbeck:
     def of(cls, value: Any, where: str | None = "VibroImpactSystem",
            name: str = "external") -> "OrnsteinUhlenbeck | None":
         """None (white noise), an :class:`OrnsteinUhlenbeck`, or its table {tau}."""
-        if value is None or isinstance(value, OrnsteinUhlenbeck):
-            return value
-        if isinstance(value, dict):
-            unknown = set(value) - set(EXTERNAL_KEYS)
-            if unknown or "tau" not in value:
-                raise invalid(where, name, "a table {tau}", value,
-                              f"unknown {sorted(unknown)}" if unknown else "tau is required")
-            try:
-                return cls(**value)
-            except InputError as exc:
-                raise InputError(f"{where}: {name}.{exc.name} {exc.rule}", where=where,
-                                 name=f"{name}.{exc.name}") from None
-        raise invalid(where, name, "OrnsteinUhlenbeck(tau=τ) or its table {tau} (None: "
-                      "white noise)", value)
+        return from_table(cls, value, EXTERNAL_KEYS, ("tau",), where, name,
+                          "OrnsteinUhlenbeck(tau=τ) or its table {tau} (None: white noise)")
