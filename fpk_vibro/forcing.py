@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import InputError, check_float, from_table, invalid
+from ._checks import check_float, from_table, invalid
 
 __all__ = ["Harmonic", "FORCING_KEYS", "first_harmonic", "check_phases"]
 

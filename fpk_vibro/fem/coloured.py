@@ -37,12 +37,12 @@ from .coloured_solution import ColouredFEMSolution
 from .coloured_solve import ModeSolver
 from .generator import tensor_index
 from .mesh import axis_nodes, domain, wall_nodes
+from .options import COLOURED_GRID
 
 __all__ = ["stationary_coloured", "DEFAULT_GRID", "estimate", "check_grid", "compare"]
 
-#: Default (nx, ny, nz, degree): the paper case with walls at ±0.6, τ = 0.5 within
-#: 1e-3 (docs/measurements.md, §Coloured noise).
-DEFAULT_GRID = (16, 24, 12, 2)
+#: Default (nx, ny, nz, degree) (declared with the options).
+DEFAULT_GRID = COLOURED_GRID
 #: Largest rtol ladder step: nx, ny, nz times this.
 RICHER = 1.5
 WHERE = "fem.stationary"

@@ -35,6 +35,7 @@ from .coloured import RICHER, _even, _solution, check_grid, compare
 from .coloured_operator import assemble_coloured, zeta_nodes
 from .coloured_solution import ColouredFEMSolution
 from .coloured_solve import ModeSolver
+from .initial_density import default_dt, initial_vector
 from .mesh import axis_nodes, domain, wall_nodes
 
 __all__ = ["transient_coloured"]
@@ -54,7 +55,6 @@ def transient_coloured(system: VibroImpactSystem, *, initial: Any, times: Sequen
     TransientResult of ColouredFEMSolution
         Each with ``.time`` and ``error_estimate()``.
     """
-    from .transient import _initial_vector, default_dt
     check_system(WHERE, system, coloured=True)
     t_out = parse_times(times, WHERE)
     nx, ny, nz, degree, y_max = check_grid(nx, ny, nz, degree, y_max, WHERE)
@@ -72,7 +72,7 @@ def transient_coloured(system: VibroImpactSystem, *, initial: Any, times: Sequen
     X, Y = np.meshgrid(bx.doflocs[0], by.doflocs[0], indexing="ij")
     unit2 = np.asarray(op.parts["Mxy"].sum(axis=0)).ravel()
     flat = SimpleNamespace(points=(X.ravel(), Y.ravel()), unit=unit2, system=system)
-    p0 = _initial_vector(flat, initial)
+    p0 = initial_vector(flat, initial)
     var = system.external.variance(system.D1)
     g = np.exp(-0.5 * bz.doflocs[0] ** 2 / var)
     p = np.kron(p0, g)

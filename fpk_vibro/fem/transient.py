@@ -44,14 +44,14 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .. import scales
 from ..initial import parse_initial, parse_times
 from ..model import VibroImpactSystem, check_system
 from ..progress import Progress
-from ..solution import Solution, TransientResult
+from ..solution import TransientResult
 from .discretisation import Discretisation, build, discretise
 from .relaxation import relaxation_time
 from .solve import factorised as step_solver, grid_nested_dissection, is_p1, nd_lu
+from .initial_density import default_dt, initial_vector as _initial_vector
 from .solution import FEMSolution
 
 __all__ = ["transient", "Discretisation", "discretise", "relaxation_time"]
@@ -70,36 +70,6 @@ GROW_MIN = 1.5
 LADDER = 2
 #: Factorised step matrices kept (least recently used dropped first).
 MAX_FACTORS = 16
-
-
-def _initial_vector(disc: Discretisation, initial: Any) -> np.ndarray:
-    """Nodal values of the initial density, renormalised to ∫p = 1 (non-negative)."""
-    x, y = disc.points
-    if isinstance(initial, Solution):
-        p0 = initial.pdf_joint(x, y)
-    elif callable(initial) and not isinstance(initial, dict):
-        p0 = np.asarray(initial(x, y), dtype=float)
-        if p0.shape != x.shape or not np.all(np.isfinite(p0)) or np.any(p0 < 0):
-            raise ValueError("initial: a callable p0(x, y) must return finite values >= 0 of "
-                             "the shape of its arguments")
-    else:
-        init = parse_initial(initial, disc.system)
-        (mx, my), (sx, sy) = init.mean, init.std
-        # a mesh cannot hold a point mass: a zero std becomes one cell width
-        hx = np.ptp(x) / max(1, np.unique(x).size - 1)
-        hy = np.ptp(y) / max(1, np.unique(y).size - 1)
-        p0 = (np.exp(-0.5 * ((x - mx) / max(sx, hx)) ** 2)
-              * np.exp(-0.5 * ((y - my) / max(sy, hy)) ** 2))
-    total = float(disc.unit @ p0)
-    if not total > 0:
-        raise ValueError("initial: the initial density has no mass on the mesh "
-                         f"(|y| < {np.max(np.abs(y)):.3g}); move it inside or raise y_max")
-    return p0 / total
-
-
-def default_dt(system: VibroImpactSystem) -> float:
-    """A twentieth of the system's period T0 (:func:`fpk_vibro.scales.period`)."""
-    return scales.period(system) / 20.0
 
 
 def transient(system: VibroImpactSystem, *, initial: Any, times: Sequence[float],
