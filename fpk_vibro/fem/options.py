@@ -388,9 +388,9 @@ class Options(_Options):
         return (k * nx + 1) * (k * ny + 1)
 
     def _coloured_cost(self, system: VibroImpactSystem, mode: str, times: Any) -> Cost:
-        """The 3-D solve (:mod:`fpk_vibro.fem.coloured`): factors of two 2-D LUs per
-        ζ-node (~150 entries per 2-D unknown), the Krylov basis, L (~65 entries per
-        row), and seconds from the
+        """The 3-D solve (:mod:`fpk_vibro.fem.coloured`): the 2-D factors (one per
+        low ζ-mode, shared by the high ones, ~60 at most; ~190 entries of 22 bytes per
+        2-D unknown), the Krylov basis, L (~65 entries per row), and seconds from the
         paper case (4·10⁴ unknowns 1.5 s, 1.3·10⁵ 10 s: N^1.6; a transient step ~10
         GMRES iterations)."""
         nx, ny, nz = (d if v is None else v
@@ -399,7 +399,7 @@ class Options(_Options):
         n2 = float((k * nx + 1) * (k * ny + 1))
         nzd = float(k * nz + 1)
         n = n2 * nzd
-        memory = 130e6 + 2 * nzd * n2 * 150 * 12 + n * 110 * 8 + n * 65 * 12
+        memory = 130e6 + min(2 * nzd, 60) * n2 * 190 * 22 + n * 110 * 8 + n * 65 * 12
         seconds = 6.5e-8 * n ** 1.6
         if mode == "transient":
             t_end = float(max(times)) if times is not None and len(times) else 0.0
