@@ -152,7 +152,9 @@ class ModeSolver:
                 self._solve[k] = shared[key] = self._solve[k]
                 nnz += f
                 if k == K:
-                    self._check_memory(f * (nm - K + K * K * 3 + (nm if self.smoother else 0)),
+                    distinct = len({_shared_shift(lam[j], j) for j in range(K, nm)})
+                    self._check_memory(f * (distinct + K * K * 3
+                                            + (nm if self.smoother else 0)),
                                        op.size)     # ("auto": the slices when added)
                 bar.update(k - K + 1)
             rows = [[(self.A + lam[i] * self.Mxy if i == j else None) for j in range(K)]
@@ -186,9 +188,9 @@ class ModeSolver:
         """Factorise the slices for the slice sweep; False (and ``info["smoother"]``
         says why) when their predicted memory is beyond the limit: GMRES goes on with
         the modal sweep alone."""
-        per = self.info["factor_nnz"] / max(1, self.nm - self.K + 3 * self.K ** 2)
-        try:
-            self._check_memory(self.info["factor_nnz"] + per * self.nm, self.op.size)
+        per = self.info["factor_nnz"] / max(1, self.info["mode_factors"] + 3 * self.K ** 2)
+        try:       # (what this adds, against the memory available now)
+            self._check_memory(per * self.nm, self.op.size)
         except InputError as exc:
             self.info["smoother"] = f"not added: {exc}"
             self._auto = False
