@@ -148,8 +148,8 @@ class ModeSolver:
                 if key in shared:                   # a high mode: a neighbour's factors
                     self._solve[k] = shared[key]
                     continue
-                self._solve[k], f = shared[key] = _lu(self.A + key * self.Mxy)
-                self._solve[k] = shared[key] = self._solve[k]
+                solve, f = _lu(self.A + key * self.Mxy)
+                self._solve[k] = shared[key] = solve
                 nnz += f
                 if k == K:
                     distinct = len({_shared_shift(lam[j], j) for j in range(K, nm)})
