@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from typing import Any
 
 import numpy as np
@@ -100,9 +101,14 @@ def stationary_coloured(system: VibroImpactSystem, *, nx: int | None = None,
             sol.info["rtol"] = rtol
             return sol
         if time.perf_counter() - t0 > 120.0 or richer.info["unknowns"] > 4_000_000:
-            sol = richer
+            sol = richer          # (its error is below the coarser level's estimate)
             sol._estimate = est
             sol.info.update(rtol=rtol, rtol_not_reached=True, under_resolved=True)
+            worst = max(est[k] for k in ESTIMATED if k in est)
+            warnings.warn(f"fem.stationary: rtol = {rtol:g} not reached within 120 s or "
+                          f"4·10⁶ unknowns; returned {sol.info['unknowns']} unknowns with "
+                          f"an estimated error below {worst:.2g}; give nx, ny, nz or a "
+                          "larger rtol", RuntimeWarning, stacklevel=3)
             return sol
         grid = [_even(RICHER * n) for n in grid]
         sol = richer
