@@ -7,6 +7,10 @@ ds = A s dt + B dW, so its stationary density is the centred Gaussian whose cova
 §Coloured noise): with white noise Σ = diag(D1/(a c), D1/c); with coloured noise the
 force's memory lowers both variances.
 
+Its spectral matrix is (1/2π) H(ω) B Bᵀ H(ω)ᴴ with H(ω) = (iω − A)⁻¹, two-sided in
+rad/s, and its correlation is R(τ) = e^{Aτ} Σ (docs/theory.md, §Spectra and crossings):
+:func:`spectrum` gives both for x or y, the exact reference of the methods' spectra.
+
 Examples
 --------
 >>> from fpk_vibro import VibroImpactSystem, OrnsteinUhlenbeck
@@ -17,16 +21,21 @@ Examples
 >>> sc = s.replace(external=OrnsteinUhlenbeck(tau=0.5))
 >>> (stationary_covariance(sc).round(6) + 0.0).tolist()
 [[0.080769, 0.0, 0.003846], [0.0, 0.076923, 0.007692], [0.003846, 0.007692, 0.02]]
+>>> sp = spectrum(s, [0.0, 1.0])
+>>> (sp.density.round(6)).tolist(), float(sp.correlation(0.0).round(6))
+([0.003183, 0.31831], 0.1)
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
-from scipy.linalg import solve_continuous_lyapunov
+from scipy.linalg import expm, solve_continuous_lyapunov
 
 from ._checks import InputError
 from .model import VibroImpactSystem
 
-__all__ = ["stationary_covariance", "drift_and_noise"]
+__all__ = ["stationary_covariance", "drift_and_noise", "spectrum"]
 
 
 def drift_and_noise(system: VibroImpactSystem) -> tuple[np.ndarray, np.ndarray]:
@@ -52,3 +61,31 @@ def stationary_covariance(system: VibroImpactSystem) -> np.ndarray:
     A, B = drift_and_noise(system)
     S = solve_continuous_lyapunov(A, -B @ B.T)
     return 0.5 * (S + S.T)
+
+
+def spectrum(system: VibroImpactSystem, omega: Any, of: str = "x", *,
+             n_lags: int = 513) -> Any:
+    """The exact two-sided S(ω) of ``of`` ("x" or "y") and R(τ) on ``n_lags`` lags up
+    to 12 decay times of the slowest mode: a :class:`~fpk_vibro.spectrum.Spectrum` of
+    method "exact" (module docstring)."""
+    from .spectrum import Spectrum, check_omega, check_signal
+    where = "linear.spectrum"
+    w = check_omega(where, omega)
+    q = SIGNALS_INDEX[check_signal(where, of)]
+    A, B = drift_and_noise(system)
+    n = A.shape[0]
+    Q = B @ B.T
+    H = np.linalg.solve(1j * w[:, None, None] * np.eye(n) - A, np.eye(n))
+    S = np.einsum("wi,ij,wj->w", H[:, q, :], Q, H[:, q, :].conj()).real / (2 * np.pi)
+    Sigma = stationary_covariance(system)
+    slowest = float(np.min(-np.linalg.eigvals(A).real))
+    lags = np.linspace(0.0, 12.0 / slowest, n_lags)
+    R = np.array([(expm(A * t) @ Sigma)[q, q] for t in lags])
+    return Spectrum("exact", system, of, w, S, variance=Sigma[q, q], lags=lags,
+                    correlation=R, estimate={"density": np.zeros_like(w), "relative": 0.0,
+                                             "variance": 0.0, "correlation": 0.0,
+                                             "assumes": "nothing: closed form"})
+
+
+#: The state index of each signal.
+SIGNALS_INDEX = {"x": 0, "y": 1}
