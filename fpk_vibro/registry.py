@@ -58,7 +58,7 @@ MODES = ("stationary", "transient", "first_passage", "periodic")
 #: The modes of an unforced system.
 _UNFORCED = MODES[:3]
 QUANTITIES = ("energy", "x", "y", "joint", "moments", "impacts", "first_passage",
-              "inter_impact", "impact_energy")
+              "inter_impact", "impact_energy", "spectra", "crossings")
 #: The safe sets a first passage may leave (:mod:`fpk_vibro.safe_sets`).
 SAFE_SETS = ("energy", "displacement", "impact_speed")
 #: The model features a method may or may not handle, with what each means.
@@ -116,6 +116,9 @@ class Method:
     study: str = ""
     benchmark: str = ""
     safe_sets: tuple[str, ...] = ("energy",)
+    #: ``spectrum()`` → the method's ``spectrum(system, omega, of=..., **keywords)``
+    #: (a :class:`~fpk_vibro.spectrum.Spectrum`); given where "spectra" is a quantity.
+    spectrum: Callable[[], Callable[..., Any]] | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         # ``solver(mode)`` refuses a mode the method does not declare, whatever the
@@ -228,6 +231,13 @@ def _fem_solver(mode: str):
     return getattr(fem, mode)          # its stationary, transient, first_passage
 
 
+def _spectrum_of(package: str) -> Callable[[], Callable[..., Any]]:
+    def spectrum() -> Callable[..., Any]:
+        from importlib import import_module
+        return import_module(f".{package}", __package__).spectrum
+    return spectrum
+
+
 def _fem_options():
     from .fem.options import Options
     return Options
@@ -279,10 +289,11 @@ provide("fem-first-passage", lambda system, **kw: _fem_solver("first_passage")(s
 
 #: What a system with coloured noise gives, per method: the modes, and the quantities
 #: (fem: those of the ζ-marginal; the impact-to-impact records need ζ at the impact).
-COLOURED = {"fem": (("stationary", "transient"), ("energy", "x", "y", "joint", "moments", "impacts")),
+COLOURED = {"fem": (("stationary", "transient"),
+                    ("energy", "x", "y", "joint", "moments", "impacts", "crossings")),
             "montecarlo": (("stationary", "transient"),
                            ("energy", "x", "y", "joint", "moments", "impacts",
-                            "inter_impact", "impact_energy"))}
+                            "inter_impact", "impact_energy", "crossings"))}
 
 
 def _forced_modes(system: VibroImpactSystem, mode: str, quantities: tuple,
@@ -318,18 +329,18 @@ for _m in (
                  if f not in ("several wells", "harmonic forcing", "coloured noise")),
            _averaging_solver, _averaging_options, safe_sets=SAFE_SETS,
            solution_kinds=("averaging", "averaging_grid"), study="n_panel ladder",
-           benchmark="averaging"),
+           benchmark="averaging", spectrum=_spectrum_of("averaging")),
     Method("fem", "finite elements for the 2-D FPK on the strip", MODES, QUANTITIES,
            tuple(FEATURES), _fem_solver, _fem_options, solution_kinds=("fem",),
            safe_sets=SAFE_SETS, check=_forced_modes,
-           study="degree and nx ladder", benchmark="fem"),
+           study="degree and nx ladder", benchmark="fem", spectrum=_spectrum_of("fem")),
     Method("montecarlo", "Monte Carlo simulation of the SDE with located impacts",
            MODES, QUANTITIES, tuple(FEATURES), _montecarlo_solver, _montecarlo_options,
            sampled=True, safe_sets=SAFE_SETS, check=_montecarlo_modes,
            solution_kinds=("montecarlo",), study="target standard error ladder",
-           benchmark="montecarlo"),
+           benchmark="montecarlo", spectrum=_spectrum_of("montecarlo")),
     Method("exact", "the Gibbs density exp(−(c/D1) H)/Z (r = 1, D2 = 0)", ("stationary",),
-           ("energy", "x", "y", "joint", "moments", "impacts"),
+           ("energy", "x", "y", "joint", "moments", "impacts", "crossings"),
            ("walls", "several wells", "restitution laws"), _exact_solver,
            solution_kinds=("exact",)),
 ):

@@ -267,6 +267,21 @@ class Solution(abc.ABC):
                           "state ζ")
         raise NotImplementedError(f"{type(self).__name__} does not give E[ζ y]")
 
+    def upcrossing_rate(self, b: Any) -> Any:
+        """ν⁺(b) = ∫_{y>0} y p(b, y) dy, the rate of upcrossings of the level x = b
+        (a number or an array; 0 beyond a wall; at a wall, the impact rate there):
+        :func:`fpk_vibro.crossings.upcrossing_rate` on :meth:`pdf_joint`.  Methods
+        that know it better override it."""
+        from .crossings import upcrossing_rate
+        return upcrossing_rate(self, b)
+
+    def peak_rate(self, b: Any) -> Any:
+        """The rate of peaks (one per excursion above the mean) higher than ``b``:
+        from a density, ν⁺(b), exact when an excursion crosses b at most once
+        (:func:`fpk_vibro.crossings.peak_rate`)."""
+        from .crossings import peak_rate
+        return peak_rate(self, b)
+
     def mean_x(self) -> float:
         """E[x] = ∫ x p(x) dx: zero for walls at ±Δ, not for asymmetric walls.
 
