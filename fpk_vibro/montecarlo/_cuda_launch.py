@@ -15,7 +15,7 @@ LAUNCH_STEPS_MAX = 1 << 22
 
 
 def _tpb() -> int:
-    return 32 if simulator() else THREADS_PER_BLOCK
+    return 8 if simulator() else THREADS_PER_BLOCK
 
 
 def _flat(p) -> np.ndarray:
