@@ -76,7 +76,8 @@ def test_auto_falls_back_to_the_cpu():
 
 
 SIM_RUN = r"""
-import json, warnings
+import faulthandler, json, warnings
+faulthandler.dump_traceback_later(240, exit=True)   # a hang shows where, in the test's output
 warnings.simplefilter("ignore")
 from fpk_vibro import VibroImpactSystem, montecarlo as mc
 s = VibroImpactSystem.paper()
@@ -91,7 +92,7 @@ def test_stationary_on_the_cuda_simulator_agrees_with_fe():
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     out = subprocess.run([sys.executable, "-c", SIM_RUN], env=env, capture_output=True,
                          text=True, timeout=300)
-    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.returncode == 0, out.stderr[-4000:]
     r = json.loads(out.stdout.strip().splitlines()[-1])
     assert r["type"] == "MonteCarloSolution" and "simulator" in r["device"]
     assert abs(r["EH"] - 0.214725) <= 3 * r["se"] + 0.002 * 0.214725, r
