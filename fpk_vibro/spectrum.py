@@ -62,6 +62,8 @@ def check_omega(where: str, omega: Any) -> np.ndarray:
     """Angular frequencies in rad/s: a finite, non-negative, strictly increasing 1-D
     array of at least one value (a number is one value)."""
     try:
+        if np.asarray(omega).dtype.kind not in "iuf":       # no text, booleans, objects
+            raise TypeError
         w = np.atleast_1d(np.asarray(omega, dtype=float))
     except (TypeError, ValueError):
         raise invalid(where, "omega", "finite frequencies >= 0 in rad/s", omega) from None
