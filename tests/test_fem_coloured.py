@@ -167,6 +167,7 @@ def test_transient_follows_the_lyapunov_ode_within_its_estimate():
             assert est[key] < 20 * max(err, 1e-4)          # and not loose
 
 
+@pytest.mark.long
 def test_rtol_bounds_the_estimated_moments():
     """The issue's speed case: the paper system with walls, τ = 0.5, within 1e-3 (one
     richer level proves the default one; 21 s measured on 2 cores, docs/measurements.md)."""

@@ -177,6 +177,7 @@ def test_default_against_a_fine_reference(s):
     _effective(difference(sol, ref), est)
 
 
+@pytest.mark.long
 def test_transient_rtol_estimates_space_and_time():
     """fem.transient(..., rtol=0.1) on the paper packet: at each output time the
     estimates of the moments and of the L1 error (what rtol bounds since issue 31)

@@ -102,6 +102,7 @@ def systems(draw):
                              right=Wall(0.5, min(1.0, r + 0.3)))
 
 
+@pytest.mark.long
 @pytest.mark.slow
 @settings(max_examples=5, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])

@@ -33,7 +33,8 @@ SYSTEMS = {
 TIMES = [0.5, 2.0]
 
 
-@pytest.mark.parametrize("name", sorted(SYSTEMS))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.long) if n == "paper" else n
+                                  for n in sorted(SYSTEMS)])
 def test_effectivity_against_a_much_finer_transient(name):
     s, init = SYSTEMS[name]
     sols = fem.transient(s, initial=init, times=TIMES, nx=24, progress=False)

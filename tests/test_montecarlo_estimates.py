@@ -106,6 +106,7 @@ TRANSIENT_CASES = [
 TIMES = [0.0, 1.0, 3.0, 8.0]
 
 
+@pytest.mark.long
 def test_transient_estimate_covers_an_fe_transient():
     """Asymmetric walls with parametric noise, and a softening spring: 16384 paths at
     the default step and at four times it, estimates at t = 1, 3, 8 against an FE

@@ -44,6 +44,7 @@ def test_convergence_table(convergence):
     assert all("estimate" in r for r in rows if r["method"] == "montecarlo")
 
 
+@pytest.mark.long
 def test_averaging_study(tmp_path):
     assert cli.main(["study", "averaging", str(EXAMPLES / "fig5_joint_r092.toml"),
                      "--quick", "--out", str(tmp_path)]) == 0
@@ -66,6 +67,7 @@ def test_averaging_study(tmp_path):
     assert t[-1] > t[0] and all(c["tau_fem"] > 0 for c in doc["cells"] if "error" not in c)
 
 
+@pytest.mark.long
 def test_transient_convergence_study_on_the_packet():
     """The transient packet's work–precision (quick, to t = 5): FE converges in space,
     Monte Carlo lies within its standard error of the truth, averaging is a model error."""
