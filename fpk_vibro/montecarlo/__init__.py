@@ -186,9 +186,11 @@ measured 2026-11-22 at load average 0.4–1.3; single measurements vary by
 from ._engine import TransientRun, stationary, transient
 from ._first_passage import first_passage
 from ._periodic import periodic
+from .crossings import CrossingRates, crossings
 from .options import Options
 from .solution import ALL_QUANTITIES, QUANTITIES, MonteCarloSolution
+from .spectrum import spectrum
 
 __all__ = ["Options", "stationary", "transient", "first_passage", "periodic",
-           "MonteCarloSolution",
+           "spectrum", "crossings", "CrossingRates", "MonteCarloSolution",
            "TransientRun", "QUANTITIES", "ALL_QUANTITIES"]
