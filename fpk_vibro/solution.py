@@ -270,14 +270,16 @@ class Solution(abc.ABC):
     def upcrossing_rate(self, b: Any) -> Any:
         """ν⁺(b) = ∫_{y>0} y p(b, y) dy, the rate of upcrossings of the level x = b
         (a number or an array; 0 beyond a wall; at a wall, the impact rate there):
-        :func:`fpk_vibro.crossings.upcrossing_rate` on :meth:`pdf_joint`.  Methods
-        that know it better override it."""
+        :func:`fpk_vibro.crossings.upcrossing_rate` on :meth:`pdf_joint`.  On a
+        Monte Carlo histogram the bins bias it (3 % high at the paper's wall);
+        :func:`fpk_vibro.montecarlo.crossings` counts crossings on the paths instead."""
         from .crossings import upcrossing_rate
         return upcrossing_rate(self, b)
 
     def peak_rate(self, b: Any) -> Any:
         """The rate of peaks (one per excursion above the mean) higher than ``b``:
-        from a density, ν⁺(b), exact when an excursion crosses b at most once
+        from a density, ν⁺(b), exact when an excursion crosses b at most once; for b
+        below the mean, the rate of excursions ν⁺(mean)
         (:func:`fpk_vibro.crossings.peak_rate`)."""
         from .crossings import peak_rate
         return peak_rate(self, b)
