@@ -189,7 +189,8 @@ def run_dataset(out_dir: str | Path):
     (with ``_se``, ``_error_estimate``: absolute, radians), and the densities at
     each phase ``phase_pdf_<q>(point, method, phase, <q>_index)`` on
     ``phase_<q>_grid(point, phase, <q>_index)``
-    (:mod:`fpk_vibro._labelled_periodic`).
+    (:mod:`fpk_vibro._labelled_periodic`).  Spectra and crossings on ``omega`` (or
+    ``frequency``) and ``level``: :mod:`fpk_vibro._labelled_spectra`.
     """
     xr = _xarray()
     doc = _records(out_dir)
@@ -258,6 +259,10 @@ def run_dataset(out_dir: str | Path):
                  if "safe_set" in e.get("first_passage", {})), None)
     if safe is not None:
         ds.attrs["safe_set"] = _attr(safe)
+    from ._labelled_spectra import spectral_dataset
+    spectral = spectral_dataset(doc)          # on the coordinates omega/frequency, level
+    if spectral is not None:
+        ds = xr.merge([ds, spectral], combine_attrs="override", join="outer")
     ds.attrs.update({"name": doc.get("name", ""), "fpk_vibro_version": doc.get("fpk_vibro_version", ""),
                      "status": doc.get("status", ""), "scene": _attr(doc.get("scene", {}))})
     return ds

@@ -293,7 +293,7 @@ COLOURED = {"fem": (("stationary", "transient"),
                     ("energy", "x", "y", "joint", "moments", "impacts", "crossings")),
             "montecarlo": (("stationary", "transient"),
                            ("energy", "x", "y", "joint", "moments", "impacts",
-                            "inter_impact", "impact_energy", "crossings"))}
+                            "inter_impact", "impact_energy", "spectra", "crossings"))}
 
 
 def _forced_modes(system: VibroImpactSystem, mode: str, quantities: tuple,

@@ -172,3 +172,12 @@ def test_reduced_sizes_come_from_the_declarations():
     assert red["fem"]["ny"] == fem.Options.declared()["ny"].reduced
     assert red["montecarlo"]["n_paths"] == montecarlo.Options.declared()["n_paths"].reduced
     assert red["montecarlo"]["t_sample"] == montecarlo.Options.declared()["t_sample"].reduced
+
+
+def test_a_reduced_run_with_rtol_lets_rtol_choose_the_grid():
+    """--reduced with [fem] rtol: no nx/ny caps that the rtol rule would refuse."""
+    from fpk_vibro import fem
+    out = fem.Options.reduce("stationary", {"rtol": 1e-3})
+    assert out["rtol"] == 1e-3 and "nx" not in out and "ny" not in out
+    fem.Options.from_call("stationary", out)          # accepted as it stands
+    assert fem.Options.reduce("stationary", {})["nx"] == 24

@@ -30,6 +30,10 @@ def write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]]
     doc = {"scene": scene.source, "name": scene.name, "stationary": not scene.transient,
            "fpk_vibro_version": __version__, "wall_time_s": wall,
            "status": "complete" if signum is None else "interrupted", "points": listed}
+    if scene.spectra is not None:  # the resolved settings (the points share them)
+        doc["spectra"] = dict(scene.spectra)
+    if scene.crossings is not None:
+        doc["crossings"] = dict(scene.crossings)
     if scene.periodic:            # the periodic response of a forced scene
         doc["periodic"], doc["phases"] = True, list(scene.phases)
     if signum is not None:
@@ -69,13 +73,26 @@ def write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]]
         doc.setdefault("figures", []).append(response_curve(
             listed, out_dir / "sweep_response.png", title=scene.name).name)
         atomic_json(out_dir / "results.json", doc)
+    if scene.sweep and "spectra" in scene.quantities and "png" in scene.formats and \
+            signum is None and any(r.get("status") == "done" for r in listed):
+        from .spectral_plots import sweep_peak_frequency
+        doc.setdefault("figures", []).append(sweep_peak_frequency(
+            listed, out_dir / "sweep_peak_frequency.png", title=scene.name,
+            units=scene.spectra["units"]).name)
+        atomic_json(out_dir / "results.json", doc)
     if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
         from ..io import atomic_files
-        from ..labelled import NETCDF_ENGINE, run_dataset
-        atomic_files(out_dir / "results.nc", lambda p: run_dataset(out_dir).to_netcdf(
+        from ..labelled import NETCDF_ENGINE
+        atomic_files(out_dir / "results.nc", lambda p: _dataset(out_dir, doc).to_netcdf(
             p, engine=NETCDF_ENGINE))
     return doc
 
+
+def _dataset(out_dir: Path, doc: dict[str, Any]):
+    """The run as one Dataset (:func:`fpk_vibro.labelled.run_dataset`, spectra and
+    crossings included)."""
+    from ..labelled import run_dataset
+    return run_dataset(out_dir)
 
 
 def storage_failed(fault: OSError, scene: Scene, points: list, records: dict[int, dict],

@@ -12,7 +12,8 @@ Layout of an output directory::
     points/p{i}.json        each sweep point as soon as it finishes
 
 A forced scene's periodic response adds its records and figures per phase
-(:mod:`fpk_vibro.app.periodic_records`, :mod:`fpk_vibro.app.periodic_point`).
+(:mod:`fpk_vibro.app.periodic_records`, :mod:`fpk_vibro.app.periodic_point`), "spectra"
+and "crossings" theirs (:mod:`fpk_vibro.app.spectral_point`).
 """
 from __future__ import annotations
 
@@ -43,6 +44,7 @@ from .impact_records import impact_arrays, impact_energy_record, inter_impact_re
 from .periodic_records import periodic_record
 from .scene_impacts import safe_set_keyword
 from .scenes import Scene, check_scene
+from .spectral_point import spectral_entry, spectral_outputs
 
 __all__ = ["run_scene", "run_point", "grids_for"]
 
@@ -53,6 +55,8 @@ def _solve(method: str, system: VibroImpactSystem, scene: Scene,
            progress: bool | None = False) -> Any:
     """One method on one system with the scene's keywords; a Solution or a list."""
     kw = solver_kwargs(scene, method, progress=progress)
+    if "crossings" in scene.quantities and "joint" not in kw.get("quantities", ("joint",)):
+        kw["quantities"] += ("joint",)      # ν⁺(b) integrates the joint density
     solve = methods()[method].solver(scene.mode)
     if scene.transient:
         return solve(system, initial=scene.initial, times=scene.times, **kw)
@@ -145,6 +149,7 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
                               "methods": {}}
     solutions: dict[str, Any] = {}
     passages: dict[str, Any] = {}
+    spectral: dict[str, Any] = {}      # "spectra", "crossings": for the arrays and figures
     for method in scene.methods:
         methods()[method].solver(scene.mode)      # imports are not the method's time
         t0 = time.perf_counter()
@@ -164,6 +169,8 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         else:
             entry.update(_moments_record(sol))
             entry.update(_engineering(scene, method, system, sol, passages))
+            if not entry.get("partial"):
+                entry.update(spectral_entry(scene, method, system, sol, spectral))
         record["methods"][method] = entry
         if record["status"] == "interrupted":
             break
@@ -225,6 +232,8 @@ def run_point(scene: Scene, index: int, params: dict[str, float], system: VibroI
         for key in ("E_H", "E_x2", "E_y2"):
             figs.append(run_plots.moment_history(record["methods"], out_dir / f"p{index}_{key}_t.png",
                                                 key=key, title=scene.name).name)
+    if spectral:
+        arrays.update(spectral_outputs(scene, index, system, spectral, record, out_dir))
     if "vtu" in scene.formats and "fem" in solutions:
         fem_sol = solutions["fem"][-1] if scene.transient else \
             solutions["fem"].average() if scene.periodic else solutions["fem"]

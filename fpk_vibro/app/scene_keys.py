@@ -5,7 +5,8 @@ sub-tables from :data:`fpk_vibro.model.WALL_FIELDS`), ``[forcing]`` from
 :data:`FORCING_FIELDS` (the keys of :class:`fpk_vibro.forcing.Harmonic`), ``[external]``
 from :data:`EXTERNAL_FIELDS` (those of :class:`fpk_vibro.noise.OrnsteinUhlenbeck`),
 ``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the rest
-from :data:`STUDY_KEYS` here.  Parsing a scene is :mod:`fpk_vibro.app.scenes`.
+from :data:`STUDY_KEYS` here (``[spectra]`` and ``[crossings]`` from
+:mod:`fpk_vibro.app.spectral_keys`).  Parsing a scene is :mod:`fpk_vibro.app.scenes`.
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from .._checks import InputError, check_float, closest, invalid
 from ..registry import QUANTITIES as _REGISTRY_QUANTITIES, methods
 from ..model import FIELDS, WALL_FIELDS
 from ..options import REQUIRED, Option, PerMode
+from .spectral_keys import CROSSINGS_KEYS, SPECTRA_KEYS
 
 __all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "IMPACT_QUANTITIES", "LAW_PARAMETERS",
            "NOT_PERIODIC", "FORCING_FIELDS", "EXTERNAL_FIELDS", "FIELD_TABLES",
@@ -30,11 +32,12 @@ __all__ = ["METHODS", "QUANTITIES", "STATIONARY_ONLY", "IMPACT_QUANTITIES", "LAW
 METHODS = tuple(methods())
 QUANTITIES = _REGISTRY_QUANTITIES
 #: Quantities of a stationary scene only.
-STATIONARY_ONLY = ("impacts", "first_passage", "inter_impact", "impact_energy")
+STATIONARY_ONLY = ("impacts", "first_passage", "inter_impact", "impact_energy", "spectra",
+                   "crossings")
 #: Quantities about impacts: they need a system with a wall.
 IMPACT_QUANTITIES = ("impacts", "inter_impact", "impact_energy")
 #: Quantities a forced system does not have (they assume a stationary response).
-NOT_PERIODIC = ("first_passage", "inter_impact", "impact_energy")
+NOT_PERIODIC = ("first_passage", "inter_impact", "impact_energy", "spectra", "crossings")
 #: The phases of a periodic scene without ``study.phases``: 8 equally spaced.
 DEFAULT_PHASES = tuple(2.0 * math.pi * k / 8 for k in range(8))
 #: The keys of ``[forcing]`` (:class:`fpk_vibro.forcing.Harmonic`; it checks them too).
@@ -216,6 +219,8 @@ STUDY_KEYS: dict[str, dict[str, Option]] = {
                         allowed="increasing list of numbers >= 0", unit="s",
                         auto="a grid up to 5 τ"),
     },
+    "spectra": SPECTRA_KEYS,
+    "crossings": CROSSINGS_KEYS,
     "output": {
         "directory": Option(None, "output directory, relative to the scene", "text",
                             auto="results/<scene name>"),
@@ -237,7 +242,7 @@ def method_tables() -> tuple[str, ...]:
 def tables() -> tuple[str, ...]:
     """Every table a scene may hold, the methods' tables among them."""
     return ("system", "barriers", "forcing", "external", "study") + method_tables() + (
-        "initial", "first_passage", "sweep", "output")
+        "initial", "first_passage", "spectra", "crossings", "sweep", "output")
 
 
 TABLES = tables()

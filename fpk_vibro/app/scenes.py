@@ -10,7 +10,8 @@ comes from one declaration: ``[system]`` and ``[barriers]`` from
 :data:`~fpk_vibro.app.scene_keys.FORCING_FIELDS`, ``[external]`` from
 :data:`~fpk_vibro.app.scene_keys.EXTERNAL_FIELDS`,
 ``[averaging]``, ``[fem]``, ``[montecarlo]`` from each method's ``Options``, the
-rest from :data:`STUDY_KEYS` here.  :data:`SCHEMA` gathers them (and the table of
+rest from :data:`STUDY_KEYS` here ("spectra" and "crossings":
+:mod:`~fpk_vibro.app.scene_spectra`).  :data:`SCHEMA` gathers them (and the table of
 docs/guide/keys.md is generated from it).
 
 :func:`parse_scene` checks every key; :func:`check_scene` then runs, per point and
@@ -34,6 +35,7 @@ from ..registry import methods as method_registry
 from .outdir import safe_name
 from .scene_impacts import (check_first_passage, check_law_sweep, check_laws, check_walls,
                             first_passage_table, flatten_sweep, point_system)
+from .scene_spectra import check_spectral, spectral_tables
 from .scene_keys import (FIELD_TABLES, FORMATS, METHODS, NOT_PERIODIC, QUANTITIES,  # noqa: F401
                          STATIONARY_ONLY, STUDY_KEYS, SWEEPABLE, TABLES, SceneError,
                          _method_options, method_tables,
@@ -78,6 +80,8 @@ class Scene:
     first_passage: dict[str, Any] | None = None
     error_estimates: str = "auto"
     phases: tuple[float, ...] | None = None
+    spectra: dict[str, Any] | None = None       # [spectra], resolved (scene_spectra)
+    crossings: dict[str, Any] | None = None     # [crossings], resolved
 
     @property
     def transient(self) -> bool:
@@ -279,14 +283,16 @@ def parse_scene(data: dict[str, Any], *, name: str = "scene", base: Path | None 
     out_dir = Path(out) if out else Path("results") / safe_name(scene_name)
     if base is not None and not out_dir.is_absolute() and out:
         out_dir = base / out_dir
-    return Scene(name=scene_name, system=system, methods=methods,
-                 quantities=quantities, first_passage=fp,
-                 times=times, phases=phases, numerics=numerics, initial=init, sweep=sweep,
-                 output_dir=out_dir,
-                 error_estimates=study.get("error_estimates",
-                                           STUDY_KEYS["study"]["error_estimates"].default),
-                 formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
-                 source=data)
+    scene = Scene(name=scene_name, system=system, methods=methods,
+                  quantities=quantities, first_passage=fp,
+                  times=times, phases=phases, numerics=numerics, initial=init, sweep=sweep,
+                  output_dir=out_dir,
+                  error_estimates=study.get("error_estimates",
+                                            STUDY_KEYS["study"]["error_estimates"].default),
+                  formats=clean["output"].get("formats", STUDY_KEYS["output"]["formats"].default),
+                  source=data)
+    spectra, crossings = spectral_tables(clean, quantities, lambda: scene.points())
+    return replace(scene, spectra=spectra, crossings=crossings)
 
 
 def _periodic(system: VibroImpactSystem, sweep: dict[str, Any], study: dict[str, Any],
@@ -358,6 +364,7 @@ def check_scene(scene: Scene) -> list[dict[str, Any]]:
         costs = {}
         at = f" (at {_label(params)})" if params else ""
         check_walls(scene.quantities, system, at)
+        check_spectral(scene, system, at)
         if scene.first_passage is not None:
             registry = method_registry()
             check_first_passage(scene.first_passage,

@@ -202,10 +202,16 @@ class Options(_Options):
 
     @classmethod
     def reduce(cls, mode: str, given: dict[str, Any]) -> dict[str, Any]:
-        """As the base; a reduced periodic run has smaller caps
+        """As the base, but a given ``rtol`` keeps choosing nx and ny; a reduced
+        periodic run has smaller caps
         (:data:`~fpk_vibro.fem.periodic_options.REDUCED`: each harmonic is a
         stationary-sized solve), not an rtol."""
         out = super().reduce(mode, given)
+        if given.get("rtol") is not None and mode != "periodic":
+            # rtol picks the grid: a cap on a size not given would clash with it
+            for name in ("nx", "ny"):
+                if given.get(name) is None:
+                    out.pop(name, None)
         if mode == "periodic":
             out.pop("rtol", None)
             out.update({k: min(out.get(k) or cap, cap) for k, cap in REDUCED.items()})
