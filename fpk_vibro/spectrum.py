@@ -230,7 +230,7 @@ class Spectrum:
         header = {"format": SPECTRUM_FORMAT, "version": SPECTRUM_VERSION,
                   "method": self.method, "of": self.of, "system": self.system.to_dict(),
                   "variance": self.variance, "mean": self.mean,
-                  "estimate": None if est is None else strict(scalars),
+                  "estimate": None if est is None else _json_floats(scalars),
                   "info": strict(_scalars(self.info))}
         arrays["header"] = np.array(json.dumps(header))
         return atomic_savez(path, arrays)
@@ -249,7 +249,8 @@ class Spectrum:
                 raise ValueError(f"version {h.get('version')!r}, expected {SPECTRUM_VERSION}")
             est = h.get("estimate")
             if est is not None:
-                est = {k: (math.nan if v is None else v) for k, v in est.items()}
+                est = {k: (float(v) if v in ("inf", "-inf", "nan") else
+                           math.nan if v is None else v) for k, v in est.items()}
                 est.update({k[len("estimate_"):]: v for k, v in data.items()
                             if k.startswith("estimate_")})
             return cls(h["method"], VibroImpactSystem.from_dict(h["system"]), h["of"],
@@ -278,6 +279,15 @@ def _same(where: str, name: str, value: Any, n: int) -> np.ndarray:
     if a.shape != (n,) or not np.all(np.isfinite(a)):
         raise invalid(where, name, f"{n} finite numbers (one per grid point)", value)
     return a
+
+
+def _json_floats(est: dict) -> dict:
+    """Scalars as JSON, a non-finite float ("no bound": inf) as its name."""
+    out = strict(est)
+    for k, v in est.items():
+        if isinstance(v, (float, np.floating)) and not math.isfinite(v):
+            out[k] = repr(float(v))
+    return out
 
 
 def _scalars(d: dict) -> dict:

@@ -18,7 +18,8 @@ ROOT = Path(__file__).resolve().parent.parent
 COLUMN = {"averaging": "median ms", "montecarlo": "kernel/floor", "fem": "L1 est",
           "fem-scale": "L1 err", "fem-transient": "max rel. error", "fem-doublewell": "median s",
           "fem-first-passage": "converged", "fem-scenes": "flagged",
-          "fem-restitution": "table law s", "fem-periodic": "est lag", "fem-coloured": "iters"}
+          "fem-restitution": "table law s", "fem-periodic": "est lag", "fem-coloured": "iters",
+          "fem-spectrum": "est rel"}
 
 
 

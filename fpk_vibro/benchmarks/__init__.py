@@ -49,6 +49,8 @@ BENCHMARKS: dict[str, Benchmark] = {
                               "forcing: seconds, K, estimate, amplitude and lag"),
     "fem-coloured": Benchmark("fem_coloured", "the 3-D coloured-noise solve: unknowns, "
                               "iterations, memory and seconds against LU"),
+    "fem-spectrum": Benchmark("fem_spectrum", "the FE spectrum (fem.spectrum): seconds, "
+                              "level, Krylov basis, estimate and error, linear and paper cases"),
 }
 
 

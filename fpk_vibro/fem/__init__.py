@@ -6,6 +6,7 @@ Public API
 ----------
 :func:`stationary`      stationary density → :class:`FEMSolution`
 :func:`periodic`        periodic density under harmonic forcing → :class:`~fpk_vibro.periodic.PeriodicResponse`
+:func:`spectrum`        stationary power spectrum and correlation → :class:`~fpk_vibro.spectrum.Spectrum`
 :func:`assemble`        (L, M) on any skfem basis of the strip (for transient solvers)
 :func:`assemble_tensor` the same by Kronecker products on a tensor-product mesh
 :func:`domain`          the truncated strip and its walls (default ``y_max`` rule)
@@ -20,7 +21,8 @@ coupling), ``impact`` (B± coupling), ``generator`` (assembly of L, M), ``mesh``
 ``ladder``: its levels, limits and predicted cost), ``transient``
 (with ``relaxation``), ``transient_accuracy`` (rtol) and ``transient_estimate`` (the
 estimate without rtol), ``first_passage`` (with ``safe_set`` and
-``passage_parts``), ``options`` (with ``wall_layers``).  The benchmarks are in
+``passage_parts``), ``spectrum`` (with ``spectrum_level`` and ``spectrum_krylov``),
+``options`` (with ``wall_layers``).  The benchmarks are in
 :mod:`fpk_vibro.benchmarks`.
 
 Measured accuracy and speed on the exact case (orders of Q1/Q2/P1/P2 and of the
@@ -37,10 +39,11 @@ from .periodic import periodic
 from .options import DEFAULT_NX, DEFAULT_RTOL, POSITIVITY, Options  # noqa: F401
 from .solution import FEMSolution
 from .solve import SOLVERS
+from .spectrum import spectrum
 from .stationary import stationary
 from .transient import relaxation_time, transient
 
-__all__ = ["stationary", "transient", "periodic", "Options", "Discretisation", "build", "FEMSolution",
+__all__ = ["stationary", "transient", "periodic", "spectrum", "Options", "Discretisation", "build", "FEMSolution",
            "assemble", "assemble_tensor", "domain", "DEFAULT_NX", "POSITIVITY",
            "default_y_max", "structured_mesh", "load_mesh", "Domain", "SOLVERS",
            "relaxation_time", "first_passage"]
