@@ -144,11 +144,11 @@ def _crossings(points: list, methods: list[str]) -> tuple[dict, dict]:
     return data, coords
 
 
-def spectral_dataset(doc: dict[str, Any]):
-    """The variables of the module docstring as an ``xarray.Dataset`` (with the
-    coordinates ``point`` and ``method`` of :func:`fpk_vibro.labelled.run_dataset`),
-    or None when the run computed neither quantity."""
-    from .labelled import _xarray
+def spectral_dataset(doc: dict[str, Any], xr: Any):
+    """The variables of the module docstring as an ``xr.Dataset`` (``xr``: the
+    xarray module; with the coordinates ``point`` and ``method`` of
+    :func:`fpk_vibro.labelled.run_dataset`), or None when the run computed neither
+    quantity."""
     points = doc.get("points", [])
     methods = sorted({m for p in points for m in p.get("methods", {})})
     data, coords = _spectra(points, methods, doc.get("spectra") or {})
@@ -158,12 +158,12 @@ def spectral_dataset(doc: dict[str, Any]):
     if not data:
         return None
     coords.update({"point": np.arange(len(points)), "method": methods})
-    ds = _xarray().Dataset(data, coords=coords)
+    ds = xr.Dataset(data, coords=coords)
     settings = doc.get("spectra") or {}
     if "spectral_density" in ds:
         ds["spectral_density"].attrs.update(units=settings.get("units", "rad/s"),
                                             sided=settings.get("sided", "two"))
-    for name, unit in (("omega", "rad/s"), ("frequency", "Hz"), ("level", "m"),
+    for name, unit in (("omega", "rad/s"), ("frequency", "Hz"), ("level", "x units"),
                        ("rice_time", "s")):
         if name in ds.coords:
             ds[name].attrs["units"] = unit

@@ -46,7 +46,7 @@ import numpy as np
 from ._checks import check_points, invalid
 from .model import VibroImpactSystem
 
-__all__ = ["upcrossing_rate", "downcrossing_rate", "gibbs_upcrossing_rate", "peak_rate",
+__all__ = ["upcrossing_rate", "downcrossing_rate", "peak_rate",
            "peak_exceedance", "rice_reliability", "PANELS_PER_SIGMA"]
 
 #: Gauss–Legendre panels per velocity scale σ = sqrt(E[y²]) (8 nodes each).
@@ -163,30 +163,6 @@ def downcrossing_rate(sol: Any, b: Any) -> Any:
     ν⁺(b) in a stationary state; at the left wall, its impact rate).  Arguments and
     refusals as :func:`upcrossing_rate`."""
     return _crossing("downcrossing_rate", sol, b, -1.0)
-
-
-def gibbs_upcrossing_rate(system: VibroImpactSystem, b: Any) -> Any:
-    """The closed form of ν⁺(b) for r = 1 (or no wall) and D2 = 0.
-
-    The Gibbs density p = exp(−β H)/Z, β = c/D1, H = y²/2 + G(x), gives
-
-        ν⁺(b) = ∫₀^∞ y e^{−β y²/2} dy · e^{−β G(b)}/Z = (D1/c) e^{−β G(b)} / Z,
-
-    Z the normaliser of :class:`fpk_vibro.exact.GibbsSolution` (0 beyond a wall).
-
-    Examples
-    --------
-    >>> from fpk_vibro import VibroImpactSystem
-    >>> s = VibroImpactSystem(a=4, b=0, c=0.2, D1=0.01, barriers="none")
-    >>> round(gibbs_upcrossing_rate(s, 0.0), 12) == round(2 / (2 * math.pi), 12)
-    True
-    """
-    from .exact import GibbsSolution
-    levels, scalar = _levels("gibbs_upcrossing_rate", b)
-    sol = GibbsSolution(system)
-    with np.errstate(under="ignore"):
-        nu = np.exp(-sol.beta * (system.potential(levels) - sol._g0)) / (sol.beta * sol.Z)
-    return _out(np.where(system.in_strip(levels), nu, 0.0), scalar)
 
 
 def peak_rate(sol: Any, b: Any) -> Any:

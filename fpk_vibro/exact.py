@@ -26,7 +26,7 @@ from .orbits import energy_floor, orbit_nodes, require_single_well
 from .scales import potential_min
 from .solution import Solution
 
-__all__ = ["GibbsSolution", "gibbs"]
+__all__ = ["GibbsSolution", "gibbs", "gibbs_upcrossing_rate"]
 
 _QUAD = dict(epsabs=0.0, epsrel=1e-13, limit=400)
 
@@ -212,3 +212,28 @@ def require_gibbs(system: VibroImpactSystem) -> None:
 def gibbs(system: VibroImpactSystem) -> GibbsSolution:
     """The exact Gibbs solution of ``system`` (r = 1 or no barrier, D2 = 0)."""
     return GibbsSolution(system)
+
+
+def gibbs_upcrossing_rate(system: VibroImpactSystem, b: Any) -> Any:
+    """The closed form of ν⁺(b) for r = 1 (or no wall) and D2 = 0.
+
+    The Gibbs density p = exp(−β H)/Z, β = c/D1, H = y²/2 + G(x), gives
+
+        ν⁺(b) = ∫₀^∞ y e^{−β y²/2} dy · e^{−β G(b)}/Z = (D1/c) e^{−β G(b)} / Z,
+
+    Z the normaliser of :class:`GibbsSolution` (0 beyond a wall; docs/theory.md,
+    §Spectra and crossings).
+
+    Examples
+    --------
+    >>> from fpk_vibro import VibroImpactSystem
+    >>> s = VibroImpactSystem(a=4, b=0, c=0.2, D1=0.01, barriers="none")
+    >>> round(gibbs_upcrossing_rate(s, 0.0), 12) == round(2 / (2 * math.pi), 12)
+    True
+    """
+    from .crossings import _levels, _out
+    levels, scalar = _levels("gibbs_upcrossing_rate", b)
+    sol = GibbsSolution(system)
+    with np.errstate(under="ignore"):
+        nu = np.exp(-sol.beta * (system.potential(levels) - sol._g0)) / (sol.beta * sol.Z)
+    return _out(np.where(system.in_strip(levels), nu, 0.0), scalar)

@@ -260,7 +260,7 @@ def run_dataset(out_dir: str | Path):
     if safe is not None:
         ds.attrs["safe_set"] = _attr(safe)
     from ._labelled_spectra import spectral_dataset
-    spectral = spectral_dataset(doc)          # on the coordinates omega/frequency, level
+    spectral = spectral_dataset(doc, xr)      # on the coordinates omega/frequency, level
     if spectral is not None:
         ds = xr.merge([ds, spectral], combine_attrs="override", join="outer")
     ds.attrs.update({"name": doc.get("name", ""), "fpk_vibro_version": doc.get("fpk_vibro_version", ""),
