@@ -27,11 +27,7 @@ reduced model's last change; the truncated strip) and the choice of shifts:
 :mod:`fpk_vibro.fem.spectrum_level`.  With ``rtol`` (default 1e-3, best effort) nx and
 ny grow until the estimated max over ω of |error| / max S is below it.
 
-Measured (2 cores; ``fpk-vibro bench fem-spectrum``): the paper system, x and y,
-200 ω in [0, 3], default rtol = 1e-3: 0.5–0.8 s each at Q4 on 16 × 26–32 cells with
-its estimate (31–43 basis vectors), estimated 5e-7 – 3e-5, error against Q4 on
-48 × 96 cells 2.6e-7 – 5e-6.  The linear oscillator (c = 0.1, 0.3): 2e-7 against
-the closed form, where the truncated strip (mass < 1e-8) sets the error.
+Measured (``fpk-vibro bench fem-spectrum``): docs/measurements.md, §FE spectra.
 """
 from __future__ import annotations
 

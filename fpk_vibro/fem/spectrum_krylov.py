@@ -22,16 +22,10 @@ S on the requested ω (and on a check grid over the band) changes by less than
 ``tol`` (relative to max S) from one round to the next; that change is the
 truncation estimate.
 
-Measured (paper system, r = 0.98, x, Q4 on 16 × 32 cells, the three shifts of
-:mod:`fpk_vibro.fem.spectrum_level`): the round-to-round change of S falls 1e-2,
-2e-4, 1e-5, 4e-7, 1e-7, 4e-9 at 19, 25, ..., 49 vectors; the linear oscillator (two
-modes) is exact to round-off after 17.  R(τ) converges more slowly near τ = 0, which
-depends on the high frequencies beyond the shifts (R_yy has the cusp that the
-impacts' velocity jumps make): against R marched in time (Crank–Nicolson, Richardson
-in the step) on that level its error was 2.4e-4 (x) and 1.6e-3 (y) of R(0) at 37
-and 43 vectors, 0.6 and 0.45 of the last round's change of R, which the estimate
-reports.  Four more shifts, an octave apart up to 16 × 3 ω̄, brought the y error to
-2.5e-4 for four more LUs: not taken, as S is the goal.
+R(τ) converges more slowly than S near τ = 0, which depends on the frequencies
+beyond the shifts (R_yy has the cusp of the impacts' velocity jumps); the last
+round's change of R, which the estimate reports, bounds it (docs/measurements.md,
+§FE spectra).
 """
 from __future__ import annotations
 

@@ -9,9 +9,8 @@ the Kronecker structure makes M⁻¹ two 1-D solves).  :func:`solve_level` reduc
 (:mod:`fpk_vibro.fem.spectrum_krylov`) with the shifts of :func:`shifts`:
 :data:`SHIFTS` over [0, 3 ω̄], ω̄ = sqrt(Var y / Var x) (Rice's mean frequency of x,
 from p_s), each σ = ω_j (:data:`DAMPING` + i), plus one per octave up to the largest
-ω asked for beyond that.  Measured on the paper system (Q4, 16 × 32 cells, ω in
-[0, 3]): three shifts reach a change below 1e-5 with 31–43 vectors in 4–7 rounds,
-six with 37–49 in 3–4 rounds; the LUs cost more than the rounds, so three.
+ω asked for beyond that: three, as on the paper system six shifts saved rounds but
+cost more in LUs than the rounds did.
 
 :func:`estimate` (per ω, summed):
 
@@ -35,11 +34,7 @@ six with 37–49 in 3–4 rounds; the LUs cost more than the rounds, so three.
 the linear interpolation between lags, (h ω)²/8 (``ReducedModel.lag_span``);
 ``"variance"`` those of Var q.
 
-Measured effectivity (estimate / error, max over ω; 60 cases: x and y; the linear
-oscillator, c = 0.1 and 0.3, against the closed form; the paper system, r = 1, 0.98,
-0.92, 0.5, against Q4 on 48 × 96 cells; Q2–Q4 on 8–16 cells and the default level):
-0.87–49, below 1 only at 0.87–0.98 (four coarse Q2/Q3 levels); at the default level
-1.9–28 (5–15 on the linear case, where the truncated strip sets the error).
+Measured effectivity: docs/measurements.md, §FE spectra.
 """
 from __future__ import annotations
 

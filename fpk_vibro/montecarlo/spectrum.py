@@ -37,15 +37,8 @@ time-step bias from a second run at 2 dt (the same paths, times, segments and se
 family; bias(dt) ≈ (S(2 dt) − S(dt))/3, the scheme being O(dt²); :mod:`.estimate`)
 and twice its SE.  The second run is made on the first call.
 
-Measured (paper case, ω on [0, 3], 256 paths, 2-core VM at load average ~7, so the
-times are upper bounds): the peak frequency of S_xx (``info["peak_frequency"]``) is
-1.0735 ± 0.0003 at r = 1, 1.0768 ± 0.0003 at r = 0.92 and 1.0990 ± 0.0003 at r = 0.5
-(T = 1000 and 4000 s agree within their SE; the resolution estimate there is at
-the noise level from T = 500 s: the peaks are much wider than λ = c = 0.025).  A
-relative SE of 0.5 % at the peak took 11.5–12.9 s with ``segment=1000`` and 41–45 s
-at the default T = 4000 s; ``error_estimate()`` (its run at 2 dt) 9–36 s more, and
-gives 2.2–2.7 % at the peak (2 SE, the resolution bias and the time-step bias of
-±0.1–0.4 %, each with twice its SE).
+Measured (peak frequencies, cost of a 1 % SE, the estimate): docs/measurements.md,
+§Monte Carlo spectra.
 """
 from __future__ import annotations
 
