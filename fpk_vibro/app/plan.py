@@ -54,6 +54,8 @@ def solver_kwargs(scene: Any, method: str, *, progress: bool | None = False) -> 
     if "quantities" in declared:      # a periodic run samples the densities only
         kw["quantities"] = tuple(q for q in scene.quantities if q in (
             DENSITIES if scene.mode == "periodic" else _solver_quantities()))
+        if "crossings" in scene.quantities and "joint" not in kw["quantities"]:
+            kw["quantities"] += ("joint",)      # ν⁺(b) integrates the joint density
     if "progress" in declared:
         kw["progress"] = progress
     return {k: v for k, v in kw.items() if scene.mode in declared[k].modes}

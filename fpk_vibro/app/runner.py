@@ -55,9 +55,10 @@ def _solve(method: str, system: VibroImpactSystem, scene: Scene,
            progress: bool | None = False) -> Any:
     """One method on one system with the scene's keywords; a Solution or a list."""
     kw = solver_kwargs(scene, method, progress=progress)
-    if "crossings" in scene.quantities and "joint" not in kw.get("quantities", ("joint",)):
-        kw["quantities"] += ("joint",)      # ν⁺(b) integrates the joint density
     solve = methods()[method].solver(scene.mode)
+    # each point's warnings are its own: Python shows a warning once per text and
+    # line, and two points can word theirs alike (the same level and estimate)
+    globals().get("__warningregistry__", {}).clear()
     if scene.transient:
         return solve(system, initial=scene.initial, times=scene.times, **kw)
     if scene.periodic:
