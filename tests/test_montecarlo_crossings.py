@@ -205,7 +205,7 @@ def test_gpu_simulator_counts_agree_with_the_cpu():
     rates within 4 combined SE of a CPU run (different streams)."""
     system = GIBBS.replace(r=0.9)
     lev = [-0.6, 0.0, 0.35, 0.6]
-    kw = dict(seed=3, n_batches=4, t_sample=150.0, t_burn=60.0, **QUIET)
+    kw = dict(seed=3, n_batches=4, t_sample=40.0, t_burn=20.0, **QUIET)
     gpu = crossings(system, lev, device="cuda", n_paths=8, **kw)
     cpu = crossings(system, lev, n_paths=256, n_batches=8, seed=3, t_sample=600.0, **QUIET)
     assert gpu.info["device"] != "cpu"
@@ -227,7 +227,7 @@ def test_gpu_simulator_coloured_parametric_one_wall():
                                right=Wall(0.3, r=0.8), barriers="right",
                                external=OrnsteinUhlenbeck(tau=0.2))
     gpu = crossings(system, [0.0, 0.3], device="cuda", seed=1, n_paths=8, n_batches=4,
-                    t_sample=80.0, t_burn=20.0, **QUIET)
+                    t_sample=30.0, t_burn=10.0, **QUIET)
     cpu = crossings(system, [0.0, 0.3], seed=1, n_paths=256, n_batches=8, t_sample=400.0,
                     **QUIET)
     assert gpu.upcrossing_rate[1] == pytest.approx(gpu.impact_rate["right"], rel=0.02)
