@@ -21,6 +21,7 @@ fpk_vibro._checks.InputError: montecarlo: device must be one of 'cpu', 'cuda', '
 from __future__ import annotations
 
 import os
+import sys
 from typing import Any
 
 from .. import _checks
@@ -30,6 +31,12 @@ __all__ = ["DEVICES", "resolve", "cuda", "available", "describe"]
 DEVICES = ("cpu", "cuda", "auto")
 #: numba-cuda versions measured to work (the benchmark prints the one in use).
 SUPPORTED = "numba-cuda >= 0.20 (0.30.4 measured), numba >= 0.60, numpy >= 1.24"
+
+#: The interpreter's thread switch interval (s) while numba's simulator is on: it runs
+#: each CUDA thread as a Python thread while the launching thread polls them holding
+#: the GIL, so every hand-off waits out the interval; at the default 5 ms a small
+#: crossings run took 238 s, at 1 ms 42 s, at 0.1 ms 6.6–8.4 s (the same run).
+SIMULATOR_SWITCH_INTERVAL = 1e-4
 
 _why: str | None = None          # why no GPU is usable (cached after the first look)
 _ok: bool | None = None
@@ -44,6 +51,8 @@ def cuda():
         One line naming the missing package and how to install it.
     """
     import numpy as np
+    if simulator():
+        sys.setswitchinterval(min(sys.getswitchinterval(), SIMULATOR_SWITCH_INTERVAL))
     if not hasattr(np, "row_stack"):
         np.row_stack = np.vstack            # removed in numpy 2.5; numba-cuda 0.30 uses it
     try:
