@@ -33,14 +33,20 @@ SHARED = ("n_paths", "dt", "t_burn", "t_sample", "seed", "n_batches", "target_rs
           "max_t_sample", "max_impacts", "progress", "threads", "device")
 
 
-def shared_options(where: str, system: Any, values: dict[str, Any]):
+def shared_options(where: str, system: Any, values: dict[str, Any],
+                   default_paths: dict[str, int] | None = None):
     """The options these runs share with :func:`~fpk_vibro.montecarlo.stationary`,
     checked by its rules (a forced system refused, coloured noise taken) with the
-    messages naming ``where``: (options, their defaults for ``system``, the device)."""
+    messages naming ``where``: (options, their defaults for ``system``, the device).
+    ``default_paths`` ({"cpu": n, "cuda": m}): the caller's n_paths where
+    ``values`` gives none, by the device."""
     from .._checks import InputError
     from ..model import check_system
     from . import _device
     from .options import Options
+    unset = default_paths is not None and values.get("n_paths") is None
+    if unset:
+        values = {**values, "n_paths": default_paths["cpu"]}
     try:
         check_system(where, system, coloured=True)
         opts = Options.from_call("stationary", {k: values[k] for k in SHARED
@@ -50,7 +56,10 @@ def shared_options(where: str, system: Any, values: dict[str, Any]):
     except InputError as exc:
         text = str(exc).replace("montecarlo.stationary", where)
         raise InputError(text, where=where, name=exc.name) from None
-    return opts, opts.resolved(system, "stationary"), device
+    resolved = opts.resolved(system, "stationary")
+    if unset and device == "cuda":
+        opts = opts.replace(n_paths=default_paths["cuda"])
+    return opts, resolved, device
 
 
 def effective_levels(system: VibroImpactSystem, levels: np.ndarray) -> np.ndarray:

@@ -238,12 +238,7 @@ def crossings(system: VibroImpactSystem, levels: Any, *,
     where = "montecarlo.crossings"
     t_start = time.perf_counter()
     arr = _levels(where, system, levels)
-    values = dict(locals())
-    if n_paths is None:
-        values["n_paths"] = DEFAULT_PATHS["cpu"]
-    opts, r, dev = shared_options(where, system, values)
-    if n_paths is None and dev == "cuda":
-        opts = opts.replace(n_paths=DEFAULT_PATHS["cuda"])
+    opts, r, dev = shared_options(where, system, dict(locals()), DEFAULT_PATHS)
     if not isinstance(bias_run, bool):
         raise invalid(where, "bias_run", "True or False", bias_run)
     res = _count(system, arr, opts, r, dev, r["dt"], where)

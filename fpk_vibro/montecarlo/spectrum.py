@@ -286,12 +286,7 @@ def spectrum(system: VibroImpactSystem, omega: Any, of: str = "x", *,
     t_start = time.perf_counter()
     w = check_omega(where, omega)
     of = check_signal(where, of)
-    values = dict(locals())
-    if n_paths is None:
-        values["n_paths"] = DEFAULT_PATHS["cpu"]
-    opts, r, dev = shared_options(where, system, values)
-    if n_paths is None and dev == "cuda":
-        opts = opts.replace(n_paths=DEFAULT_PATHS["cuda"])
+    opts, r, dev = shared_options(where, system, dict(locals()), DEFAULT_PATHS)
     if segment is not None:
         segment = check_float("segment", segment, 0.0, where=where)
     if sample_interval is not None:
