@@ -82,17 +82,10 @@ def write_results(scene: Scene, points: list, records: dict[int, dict[str, Any]]
         atomic_json(out_dir / "results.json", doc)
     if "nc" in scene.formats and any(r.get("status") == "done" for r in listed):
         from ..io import atomic_files
-        from ..labelled import NETCDF_ENGINE
-        atomic_files(out_dir / "results.nc", lambda p: _dataset(out_dir, doc).to_netcdf(
+        from ..labelled import NETCDF_ENGINE, run_dataset
+        atomic_files(out_dir / "results.nc", lambda p: run_dataset(out_dir).to_netcdf(
             p, engine=NETCDF_ENGINE))
     return doc
-
-
-def _dataset(out_dir: Path, doc: dict[str, Any]):
-    """The run as one Dataset (:func:`fpk_vibro.labelled.run_dataset`, spectra and
-    crossings included)."""
-    from ..labelled import run_dataset
-    return run_dataset(out_dir)
 
 
 def storage_failed(fault: OSError, scene: Scene, points: list, records: dict[int, dict],
