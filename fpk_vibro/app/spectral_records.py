@@ -101,25 +101,15 @@ def spectra_record(scene: Any, method: str, system: Any, keep: dict) -> dict[str
 
 
 def _rates(sol: Any, levels: np.ndarray) -> dict[str, Any]:
-    out: dict[str, Any] = {"levels": levels,
-                           "upcrossing_rate": np.asarray(sol.upcrossing_rate(levels), float),
-                           "peak_rate": np.asarray(sol.peak_rate(levels), float)}
-    for name in ("upcrossing_rate_se", "peak_rate_se"):
-        f = getattr(sol, name, None)
-        if callable(f):
-            try:
-                out[name] = np.asarray(f(levels), dtype=float)
-            except NOT_GIVEN:
-                pass
-    return out
+    return {"levels": levels,
+            "upcrossing_rate": np.asarray(sol.upcrossing_rate(levels), float),
+            "peak_rate": np.asarray(sol.peak_rate(levels), float)}
 
 
 def _counted(scene: Any, system: Any, levels: np.ndarray) -> dict[str, Any] | None:
-    """Monte Carlo's counted rates (``montecarlo.crossings``), where it exists."""
-    from .. import montecarlo
-    count = getattr(montecarlo, "crossings", None)
-    if count is None:
-        return None
+    """Monte Carlo's counted rates (``montecarlo.crossings``) of the levels inside
+    the walls (None: there are none)."""
+    from ..montecarlo import crossings as count
     kw = spectrum_kwargs(scene, "montecarlo", count)
     inside = levels[system.in_strip(levels)]       # (beyond a wall nothing crosses)
     if inside.size == 0:
