@@ -118,8 +118,7 @@ def _counted(scene: Any, system: Any, levels: np.ndarray) -> dict[str, Any] | No
         got = count(system, inside, **kw)
     except NOT_GIVEN as exc:
         return _not_given(exc)
-    got = got.to_dict() if hasattr(got, "to_dict") else dict(got)
-    return strict({k: v for k, v in got.items() if k != "system"})
+    return strict({k: v for k, v in got.to_dict().items() if k != "system"})
 
 
 def _walls(sol: Any, system: Any) -> dict[str, Any]:
